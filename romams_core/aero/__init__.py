@@ -1,0 +1,1 @@
+"""Unsteady aerodynamic solvers behind one protocol (see ``protocol.py``)."""
