@@ -1,0 +1,1 @@
+"""Speed and accuracy benchmarks; each prints JSON (run: python -m benchmarks.run --json)."""

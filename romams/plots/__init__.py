@@ -1,0 +1,1 @@
+"""Matplotlib figures (PNG/SVG) of modes, bases, training and flutter results."""
