@@ -1,0 +1,1 @@
+"""Alembic migrations of the romams database (the schema's owner)."""

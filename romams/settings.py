@@ -1,0 +1,73 @@
+"""Service settings read from the environment (prefix ``ROMAMS_``), with embedded defaults.
+
+Embedded default: everything lives under ``data_dir`` (SQLite database, SQLite-backed Celery broker),
+so ``romams serve`` needs no server. Distributed: set ``ROMAMS_DATABASE_URL`` to PostgreSQL and
+``ROMAMS_BROKER_URL`` to Redis, and run any number of ``romams worker`` processes.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+
+class Settings(BaseSettings):
+    """All service knobs; every field can be set as ``ROMAMS_<FIELD>`` in the environment."""
+
+    model_config = SettingsConfigDict(env_prefix="ROMAMS_", extra="ignore")
+
+    data_dir: Path = Field(default=Path(".romams"), description="directory for the SQLite db, broker and caches")
+    database_url: str = Field(default="", description="SQLAlchemy URL; default sqlite:///<data_dir>/romams.db")
+    broker_url: str = Field(default="", description="Celery broker; default sqla+sqlite:///<data_dir>/broker.db")
+    api_keys: Annotated[list[str], NoDecode] = Field(
+        default_factory=list, description="bearer keys for mutating endpoints (comma separated); empty = no auth"
+    )
+    batch_sync_max: int = Field(default=64, ge=1, description="largest flutter batch answered synchronously")
+    batch_max: int = Field(default=20000, ge=1, description="largest flutter batch accepted at all")
+    batch_chunk: int = Field(default=64, ge=1, description="designs per evaluation task of a batch job")
+    sync_timeout_s: float = Field(default=60.0, gt=0, description="how long the API waits for a synchronous result")
+    max_samples: int = Field(default=500, ge=1, description="largest basis sample count")
+    max_modes: int = Field(default=20, ge=1, description="largest number of modes per structure")
+    basis_chunk: int = Field(default=5, ge=1, description="modal analyses per task of a basis job")
+    max_deliveries: int = Field(default=3, ge=1, description="deliveries of one job before it is failed")
+    training_time_limit_s: int = Field(default=3600, ge=1, description="hard time limit of a training task")
+    evaluation_time_limit_s: int = Field(default=600, ge=1, description="hard time limit of an evaluation task")
+    cache_size: int = Field(default=32, ge=1, description="bases/ROMs kept in a worker's memory")
+    result_cache_size: int = Field(default=20000, ge=0, description="flutter results kept in a worker's memory")
+    upload_max_bytes: int = Field(default=200_000_000, ge=1, description="largest accepted Nastran upload")
+    worker_concurrency: int = Field(default=1, ge=1, description="processes of the embedded/child worker")
+    host: str = Field(default="127.0.0.1", description="bind address of `romams serve`")
+    port: int = Field(default=8000, ge=1, le=65535, description="port of `romams serve`")
+
+    @field_validator("api_keys", mode="before")
+    @classmethod
+    def _split_keys(cls, v: object) -> object:
+        """Accept a comma-separated string or a list."""
+        if isinstance(v, str):
+            return [k.strip() for k in v.split(",") if k.strip()]
+        return v
+
+    @property
+    def db_url(self) -> str:
+        """Effective SQLAlchemy database URL."""
+        return self.database_url or f"sqlite:///{self.data_dir.resolve() / 'romams.db'}"
+
+    @property
+    def broker(self) -> str:
+        """Effective Celery broker URL."""
+        return self.broker_url or f"sqla+sqlite:///{self.data_dir.resolve() / 'broker.db'}"
+
+    @property
+    def is_sqlite(self) -> bool:
+        """True when the database is SQLite (embedded mode)."""
+        return self.db_url.startswith("sqlite")
+
+
+@lru_cache(maxsize=1)
+def get_settings() -> Settings:
+    """Settings of this process (cached; call ``get_settings.cache_clear()`` after changing the env)."""
+    return Settings()
