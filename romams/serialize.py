@@ -24,6 +24,15 @@ ALLOWED_PREFIXES = ("romams_core", "romams", "worker", "api", "client", "tests")
 FORMAT = 1
 
 
+_REGISTRY: dict[str, type] = {}
+
+
+def register(cls: type) -> type:
+    """Allow ``cls`` (defined outside this project's packages) to be rebuilt by :func:`loads`; usable as decorator."""
+    _REGISTRY[type_name(cls)] = cls
+    return cls
+
+
 def type_name(cls: type) -> str:
     """'module:QualName' of a class."""
     return f"{cls.__module__}:{cls.__qualname__}"
@@ -33,6 +42,8 @@ def resolve(name: str, types: Mapping[str, type] | None = None) -> type:
     """Class from 'module:QualName', restricted to this project's packages (or ``types``)."""
     if types and name in types:
         return types[name]
+    if name in _REGISTRY:
+        return _REGISTRY[name]
     module, _, qual = name.partition(":")
     if module.split(".")[0] not in ALLOWED_PREFIXES:
         raise ValueError(f"serialized type {name!r}: module not allowed")

@@ -14,6 +14,7 @@ from romams.settings import Settings
 from romams.store import Store, content_hash, head_revision, open_store, rom_key, schema_revision
 
 
+@serialize.register
 @dataclass(frozen=True)
 class Inner:
     omega: np.ndarray
@@ -21,6 +22,7 @@ class Inner:
     scale: float
 
 
+@serialize.register
 @dataclass
 class Outer:
     shapes: np.ndarray
@@ -37,6 +39,7 @@ class Outer:
         self.cached = self.shapes.sum(axis=0)
 
 
+@serialize.register
 @dataclass(frozen=True)
 class Named:
     name: str
