@@ -1,0 +1,114 @@
+"""The one interface every unsteady aerodynamic solver ("CFD") implements.
+
+Conventions of ``simulate`` (shared by the built-in UVLM, a transonic solver and external-CFD adapters):
+- ``shapes`` [N, m]: out-of-plane (+z) displacement of the standard-mesh nodes per unit generalized
+  coordinate (m);
+- ``signals`` [T, m]: generalized displacements u_i (dimensionless) sampled on the nondimensional time
+  grid t*_n = n * dt_star, t* = t V / c_ref, starting from rest (u = 0 before n = 0);
+- returns ``gac`` [T, m]: generalized aerodynamic coefficients f_i(t_n) = (1/q) * integral(dp * phi_i dS)
+  (m^3 when shapes are in m), dp positive up, q = rho V^2 / 2.
+
+Nothing above this interface may depend on a particular solver's internals.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from romams_core.mesh import StandardMesh
+
+ProgressFn = Callable[[float, str], None]
+
+#: Above this Mach number linear (Prandtl-Glauert) compressibility corrections are flagged unreliable.
+LINEAR_MACH_WARNING = 0.9
+
+
+class Cancelled(Exception):
+    """Raised by a progress callback to cancel a running simulation; solvers let it propagate."""
+
+
+@dataclass
+class SolverInfo:
+    """What a solver is and the caveats of its results at one Mach number (warnings are plain strings)."""
+
+    name: str
+    description: str
+    warnings: list[str] = field(default_factory=list)
+
+
+@runtime_checkable
+class UnsteadySolver(Protocol):
+    """Time-domain unsteady aerodynamic solver driven by generalized displacements of given shapes."""
+
+    name: str
+
+    def simulate(
+        self,
+        mesh: StandardMesh,
+        shapes: np.ndarray,
+        signals: np.ndarray,
+        mach: float,
+        dt_star: float,
+        progress: ProgressFn | None = None,
+    ) -> np.ndarray:
+        """Run the solver for signals [T, m] of shapes [N, m] (m) at ``mach``; return GAC [T, m] (m^3)."""
+        ...
+
+    def info(self, mach: float) -> SolverInfo:
+        """Describe the solver and list warnings that apply to results at ``mach``."""
+        ...
+
+
+def check_mach(mach: float, upper: float = 0.999) -> float:
+    """Validate a free-stream Mach number (0 <= M < upper); return it as float."""
+    if not (isinstance(mach, int | float | np.floating | np.integer) and math.isfinite(mach)):
+        raise ValueError(f"mach: must be a finite number, got {mach!r}")
+    if not 0.0 <= float(mach) < upper:
+        raise ValueError(f"mach: must be in [0, {upper}) for this solver, got {mach}")
+    return float(mach)
+
+
+def check_dt_star(dt_star: float) -> float:
+    """Validate the nondimensional time step (t* = t V / c_ref); return it as float."""
+    if not (isinstance(dt_star, int | float | np.floating | np.integer) and math.isfinite(dt_star) and dt_star > 0):
+        raise ValueError(f"dt_star: must be a finite number > 0, got {dt_star!r}")
+    return float(dt_star)
+
+
+def check_shapes(mesh: StandardMesh, shapes: np.ndarray) -> np.ndarray:
+    """Validate mode shapes [N, m] (m) against the mesh; a 1-D array is one shape. Returns float [N, m]."""
+    arr = np.asarray(shapes, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2 or arr.shape[0] != mesh.n_nodes or arr.shape[1] < 1:
+        raise ValueError(f"shapes: expected shape [{mesh.n_nodes}, m>=1] (one column per shape), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("shapes: must be finite")
+    return arr
+
+
+def check_signals(signals: np.ndarray, m: int) -> np.ndarray:
+    """Validate generalized-displacement signals [T, m]; return float [T, m]."""
+    arr = np.asarray(signals, dtype=float)
+    if arr.ndim == 1 and m == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2 or arr.shape[1] != m or arr.shape[0] < 2:
+        raise ValueError(f"signals: expected shape [T>=2, {m}] (one column per shape), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("signals: must be finite")
+    return arr
+
+
+def mach_warnings(mach: float) -> list[str]:
+    """Standard warning list for linear (Prandtl-Glauert corrected) solvers at ``mach``."""
+    if mach > LINEAR_MACH_WARNING:
+        return [
+            f"M = {mach:.3f} > {LINEAR_MACH_WARNING}: the linear Prandtl-Glauert compressibility correction "
+            "is unreliable toward M = 1 (no shocks, no transonic dip); use a transonic solver"
+        ]
+    return []

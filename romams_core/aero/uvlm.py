@@ -1,0 +1,462 @@
+"""Linear unsteady vortex-lattice method (UVLM) on the standard mesh, frozen flat wake.
+
+Model (derivation and verification in docs/aerodynamics.md):
+- vortex rings on the standard-mesh panels, shifted a quarter panel chord aft (Kutta condition implicit);
+  optional tip inset of the outer side legs by a quarter strip (Hough); the root is a symmetry plane
+  (mirror image lattice), so the mesh is a half wing;
+- collocation at 3/4 panel chord, mid lattice strip, normal +z; transpiration boundary condition
+  w = dh/dt + V dh/dx with h and dh/dx from the panel's bilinear interpolant of the nodal shape values;
+- flat wake convected at V, one row (length dt_star * c_ref) shed per step, truncated after
+  ``wake_chords`` chords (last row dropped);
+- linearized pressure: panel force rho dy (V dG_x + dx dG/dt) (Kutta-Joukowski on the bound leg plus the
+  unsteady term, dG/dt by BDF2), generalized forces at the 1/4-chord force points;
+- compressibility by the Prandtl-Glauert/Goethert stretch x -> x / beta, beta = sqrt(1 - M^2), of the
+  lattice and wake for the influence coefficients, with physical normal-wash and pressure. This is
+  exact as k -> 0 only, neglects acoustic retardation, and fails as M -> 1 (beta -> 0): results above
+  M = 0.9 carry a warning.
+
+Everything is nondimensional (lengths / c_ref, time t* = t V / c_ref, G / (V c_ref), velocities / V), so
+one march serves every V and rho. All arrays that are per-panel use the panel index p = j * n_chord + i
+(i chordwise, j spanwise) of ``StandardMesh.panels``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from numpy.lib.stride_tricks import sliding_window_view
+
+from romams_core.aero.protocol import (
+    Cancelled,
+    ProgressFn,
+    SolverInfo,
+    check_dt_star,
+    check_mach,
+    check_shapes,
+    check_signals,
+    mach_warnings,
+)
+from romams_core.mesh import StandardMesh
+
+__all__ = [
+    "UvlmSystem",
+    "UvlmSolver",
+    "build_uvlm",
+    "march",
+    "frequency_response",
+    "panel_forces_frequency",
+    "uvlm_state_space",
+    "Cancelled",
+]
+
+_FOUR_PI = 4.0 * math.pi
+
+
+def _segment_wz(
+    px: np.ndarray, py: np.ndarray, ax: np.ndarray, ay: np.ndarray, bx: np.ndarray, by: np.ndarray, cutoff: float
+) -> np.ndarray:
+    """z-velocity [P, S] induced at in-plane points by unit straight vortex segments A->B in the plane z = 0."""
+    r1x = px[:, None] - ax[None, :]
+    r1y = py[:, None] - ay[None, :]
+    r2x = px[:, None] - bx[None, :]
+    r2y = py[:, None] - by[None, :]
+    cz = r1x * r2y - r1y * r2x
+    n1 = np.hypot(r1x, r1y)
+    n2 = np.hypot(r2x, r2y)
+    r0x = (bx - ax)[None, :]
+    r0y = (by - ay)[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dot = r0x * (r1x / n1 - r2x / n2) + r0y * (r1y / n1 - r2y / n2)
+        v = dot / (_FOUR_PI * cz)
+    bad = (np.abs(cz) <= cutoff * np.hypot(r0x, r0y)) | (n1 < cutoff) | (n2 < cutoff)
+    v[bad] = 0.0
+    return v
+
+
+def _ring_influence(
+    px: np.ndarray, py: np.ndarray, xc: np.ndarray, yc: np.ndarray, cutoff: float = 1e-9, chunk: int = 2_000_000
+) -> np.ndarray:
+    """z-velocity [P, nL, ns] at points from unit vortex rings on a corner grid xc [nL+1, ns+1], yc [ns+1].
+
+    Ring (a, b) has corners (a, b), (a, b+1), (a+1, b+1), (a+1, b); positive strength induces downwash
+    inside (lift up for flow along +x). The mirror image about y = 0 (symmetric loading) is included.
+    Unique legs are evaluated once and differenced, chunked over points to bound memory.
+    """
+    nl1, ns1 = xc.shape
+    nl, ns = nl1 - 1, ns1 - 1
+    yy = np.broadcast_to(yc[None, :], xc.shape)
+    # spanwise legs (a, b) -> (a, b+1), and chordwise legs (a, b) -> (a+1, b)
+    s_ax, s_ay = xc[:, :-1].ravel(), yy[:, :-1].ravel()
+    s_bx, s_by = xc[:, 1:].ravel(), yy[:, 1:].ravel()
+    c_ax, c_ay = xc[:-1, :].ravel(), yy[:-1, :].ravel()
+    c_bx, c_by = xc[1:, :].ravel(), yy[1:, :].ravel()
+    ax = np.concatenate([s_ax, c_ax])
+    ay = np.concatenate([s_ay, c_ay])
+    bx = np.concatenate([s_bx, c_bx])
+    by = np.concatenate([s_by, c_by])
+    n_s = s_ax.size
+    n_seg = ax.size
+    out = np.empty((px.size, nl, ns))
+    step = max(1, chunk // max(1, 2 * n_seg))
+    for p0 in range(0, px.size, step):
+        sl = slice(p0, min(px.size, p0 + step))
+        # real lattice plus image: reflected segment runs from B' to A' (same strength)
+        v = _segment_wz(px[sl], py[sl], ax, ay, bx, by, cutoff)
+        v += _segment_wz(px[sl], py[sl], bx, -by, ax, -ay, cutoff)
+        vs = v[:, :n_s].reshape(-1, nl + 1, ns)
+        vc = v[:, n_s:].reshape(-1, nl, ns + 1)
+        out[sl] = vs[:, :-1, :] - vs[:, 1:, :] + vc[:, :, 1:] - vc[:, :, :-1]
+    return out
+
+
+@dataclass
+class UvlmSystem:
+    """Assembled nondimensional UVLM of one mesh, Mach number and time step (matrices, no solution)."""
+
+    mach: float
+    beta: float
+    dt_star: float
+    c_ref: float
+    n_chord: int
+    n_span: int
+    n_wake: int  # wake rows kept
+    aic_lu: tuple = field(repr=False)  # lu_factor of the bound AIC A0 [K, K]
+    aic: np.ndarray = field(repr=False)  # A0 [K, K]
+    aic_wake: np.ndarray = field(repr=False)  # AW [K, n_wake, n_span]
+    interp_colloc: sp.csr_matrix = field(repr=False)  # [K, N] shape value at collocation points
+    ddx_colloc: sp.csr_matrix = field(repr=False)  # [K, N] d/dx of the shape at collocation points (1/m)
+    interp_force: sp.csr_matrix = field(repr=False)  # [K, N] shape value at force points
+    diff_x: sp.csr_matrix = field(repr=False)  # [K, K] G_p - G_(p upstream)
+    dy_hat: np.ndarray = field(repr=False)  # [K] lattice strip width / c_ref
+    dx_hat: np.ndarray = field(repr=False)  # [K] panel chord / c_ref
+    te: np.ndarray = field(repr=False)  # [n_span] trailing-edge panel indices
+    colloc_xy: np.ndarray = field(repr=False)  # [K, 2] physical collocation points (m)
+    force_xy: np.ndarray = field(repr=False)  # [K, 2] physical force points (m)
+    panel_area: np.ndarray = field(repr=False)  # [K] physical lattice panel areas dx * dy (m^2)
+
+    @property
+    def n_panels(self) -> int:
+        """Bound ring count K."""
+        return self.n_chord * self.n_span
+
+    def wash_matrices(self, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nondimensional normal-wash per unit u and per unit du/dt*: (W_disp [K, m], W_vel [K, m])."""
+        return self.ddx_colloc @ shapes, (self.interp_colloc @ shapes) / self.c_ref
+
+    def output_matrices(self, shapes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """GAC per unit G and per unit dG/dt*: (C_g [m, K], C_d [m, K]) in m^3 (f = C_g G + C_d G')."""
+        phi_f = self.interp_force @ shapes  # [K, m]
+        scale = 2.0 * self.c_ref**2
+        c_g = scale * (self.diff_x.T @ (phi_f * self.dy_hat[:, None])).T
+        c_d = scale * (phi_f * (self.dy_hat * self.dx_hat)[:, None]).T
+        return np.asarray(c_g), np.asarray(c_d)
+
+
+def _interp_matrix(mesh: StandardMesh, s: np.ndarray, t: np.ndarray, derivative: bool) -> sp.csr_matrix:
+    """Sparse [K, N] bilinear interpolation (or its x-derivative, 1/m) at panel parameters s (chord), t (span)."""
+    nc, ns = mesh.n_chord, mesh.n_span
+    j, i = np.divmod(np.arange(nc * ns), nc)
+    n00 = j * (nc + 1) + i
+    n10, n01 = n00 + 1, n00 + nc + 1
+    n11 = n01 + 1
+    if derivative:
+        jac = (1 - t) * (mesh.x[n10] - mesh.x[n00]) + t * (mesh.x[n11] - mesh.x[n01])
+        w = np.column_stack([-(1 - t), 1 - t, -t, t]) / jac[:, None]
+    else:
+        w = np.column_stack([(1 - s) * (1 - t), s * (1 - t), (1 - s) * t, s * t])
+    rows = np.repeat(np.arange(nc * ns), 4)
+    cols = np.column_stack([n00, n10, n01, n11]).ravel()
+    return sp.csr_matrix((w.ravel(), (rows, cols)), shape=(nc * ns, mesh.n_nodes))
+
+
+def build_uvlm(
+    mesh: StandardMesh,
+    mach: float,
+    dt_star: float,
+    wake_chords: float = 20.0,
+    tip_inset: bool = True,
+) -> UvlmSystem:
+    """Assemble and LU-factorize the nondimensional UVLM of ``mesh`` at ``mach`` with step ``dt_star``.
+
+    ``wake_chords``: wake length in root chords (rows of length dt_star * c_ref). Prandtl-Glauert/Goethert
+    stretch of x by 1/beta; unreliable toward M = 1 (see module docstring).
+    """
+    mach = check_mach(mach)
+    dt_star = check_dt_star(dt_star)
+    if not (math.isfinite(wake_chords) and wake_chords > 0):
+        raise ValueError(f"wake_chords: must be a finite number > 0, got {wake_chords!r}")
+    beta = math.sqrt(1.0 - mach**2)
+    nc, ns, c = mesh.n_chord, mesh.n_span, mesh.c_ref
+    n_wake = max(1, int(math.ceil(wake_chords / dt_star - 1e-9)))
+    xn = mesh.grid(mesh.x).T / c  # [nc+1, ns+1], nondimensional
+    yn = mesh.grid(mesh.y)[:, 0] / c  # [ns+1]
+    dxn = np.diff(xn, axis=0)  # [nc, ns+1]
+    # ring corner grid: quarter panel aft of the nodes
+    xr = np.empty_like(xn)
+    xr[:-1] = xn[:-1] + 0.25 * dxn
+    xr[-1] = xn[-1] + 0.25 * dxn[-1]
+    yl = yn.copy()
+    if tip_inset and ns >= 1:
+        yl[-1] = yn[-1] - 0.25 * (yn[-1] - yn[-2])
+        xr[:, -1] = xr[:, -2] + 0.75 * (xr[:, -1] - xr[:, -2])
+    # panel parameters of collocation (3/4 chord) and force (1/4 chord) points: mid lattice strip
+    j, i = np.divmod(np.arange(nc * ns), nc)
+    y_mid = 0.5 * (yl[j] + yl[j + 1])
+    t = (y_mid - yn[j]) / (yn[j + 1] - yn[j])
+    s_c = np.full(nc * ns, 0.75)
+    s_f = np.full(nc * ns, 0.25)
+
+    def _pt(s: np.ndarray) -> np.ndarray:
+        x00, x10, x01, x11 = xn[i, j], xn[i + 1, j], xn[i, j + 1], xn[i + 1, j + 1]
+        return (1 - s) * (1 - t) * x00 + s * (1 - t) * x10 + (1 - s) * t * x01 + s * t * x11
+
+    xc, xf = _pt(s_c), _pt(s_f)
+    dx_hat = (1 - t) * dxn[i, j] + t * dxn[i, j + 1]
+    dy_hat = yl[j + 1] - yl[j]
+    # influence coefficients in the stretched frame
+    # _ring_influence returns [P, nL, ns] with ring index (a, b); panel index is b * nc + a
+    a0 = _ring_influence(xc / beta, y_mid, xr / beta, yl).transpose(0, 2, 1).reshape(nc * ns, nc * ns)
+    xw = xr[-1][None, :] + dt_star * np.arange(n_wake + 1)[:, None]
+    aw = _ring_influence(xc / beta, y_mid, xw / beta, yl)  # [K, n_wake, ns]
+    diff_x = sp.eye(nc * ns, format="csr") - sp.eye(nc * ns, k=-1, format="csr")
+    lead = np.arange(0, nc * ns, nc)  # leading-edge panels have no upstream ring
+    diff_x = sp.lil_matrix(diff_x)
+    diff_x[lead[1:], lead[1:] - 1] = 0.0
+    return UvlmSystem(
+        mach=mach,
+        beta=beta,
+        dt_star=dt_star,
+        c_ref=c,
+        n_chord=nc,
+        n_span=ns,
+        n_wake=n_wake,
+        aic_lu=sla.lu_factor(a0),
+        aic=a0,
+        aic_wake=aw,
+        interp_colloc=_interp_matrix(mesh, s_c, t, derivative=False),
+        ddx_colloc=_interp_matrix(mesh, s_c, t, derivative=True),
+        interp_force=_interp_matrix(mesh, s_f, t, derivative=False),
+        diff_x=sp.csr_matrix(diff_x),
+        dy_hat=dy_hat,
+        dx_hat=dx_hat,
+        te=np.arange(ns) * nc + nc - 1,
+        colloc_xy=np.column_stack([xc, y_mid]) * c,
+        force_xy=np.column_stack([xf, y_mid]) * c,
+        panel_area=dx_hat * dy_hat * c**2,
+    )
+
+
+def bdf2(x: np.ndarray, dt: float) -> np.ndarray:
+    """Causal BDF2 time derivative along axis 0 of samples starting from rest (x = 0 before index 0)."""
+    x1 = np.zeros_like(x)
+    x1[1:] = x[:-1]
+    x2 = np.zeros_like(x)
+    x2[2:] = x[:-2]
+    return (1.5 * x - 2.0 * x1 + 0.5 * x2) / dt
+
+
+def march(system: UvlmSystem, wash: np.ndarray, progress: ProgressFn | None = None) -> np.ndarray:
+    """Time-march ring strengths G [T, K, B] (nondimensional) for normal-wash histories wash [T, K, B].
+
+    Step n: wake row 0 holds G_TE(n-1), row r holds G_TE(n-1-r); A0 G(n) = w(n) - AW Gw(n). The only
+    sequential part is the recursion on the trailing-edge strengths; all the rest is batched.
+    """
+    n_t, k, n_b = wash.shape
+    ns, nw = system.n_span, system.n_wake
+    # quasi-steady part for all steps at once, and the wake-to-bound operator P = A0^-1 AW
+    gq = sla.lu_solve(system.aic_lu, wash.transpose(1, 0, 2).reshape(k, n_t * n_b)).reshape(k, n_t, n_b)
+    p = sla.lu_solve(system.aic_lu, system.aic_wake.reshape(k, nw * ns)).reshape(k, nw, ns)
+    p_rev = p[:, ::-1, :].reshape(k, nw * ns)  # column block s multiplies G_TE(n - nw + s)
+    p_te = p_rev[system.te]
+    hist = np.zeros((n_t + nw, ns, n_b))
+    gq_te = gq[system.te].transpose(1, 0, 2)  # [T, ns, B]
+    every = max(1, n_t // 20)
+    for n in range(n_t):
+        hist[n + nw] = gq_te[n] - p_te @ hist[n : n + nw].reshape(nw * ns, n_b)
+        if progress is not None and n % every == 0:
+            progress(0.9 * n / n_t, f"UVLM time march {n}/{n_t}")
+    # full strengths: G(n) = Gq(n) - P_rev @ window(n), chunked over time
+    out = np.empty((n_t, k, n_b))
+    win = sliding_window_view(hist[:-1], nw, axis=0)  # [T, ns, B, nw] window starting at n
+    blk = max(1, 4_000_000 // max(1, nw * ns * n_b))
+    for n0 in range(0, n_t, blk):
+        w = win[n0 : n0 + blk].transpose(0, 3, 1, 2).reshape(-1, nw * ns, n_b)  # [b, nw*ns, B]
+        out[n0 : n0 + blk] = gq[:, n0 : n0 + blk, :].transpose(1, 0, 2) - np.einsum("kq,tqb->tkb", p_rev, w)
+    return out
+
+
+def _gac_time(system: UvlmSystem, shapes: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """GAC [T, m, B] (m^3) from ring strengths G [T, K, B] (BDF2 dG/dt*)."""
+    c_g, c_d = system.output_matrices(shapes)
+    gdot = bdf2(g, system.dt_star)
+    return np.einsum("mk,tkb->tmb", c_g, g) + np.einsum("mk,tkb->tmb", c_d, gdot)
+
+
+def _z_wake(system: UvlmSystem, z: complex) -> np.ndarray:
+    """Bound AIC with the wake folded in at z: A0 + sum_r AW_r z^-(r+1) on the TE columns [K, K] complex."""
+    zr = z ** -(np.arange(system.n_wake) + 1.0)
+    m = system.aic.astype(complex)
+    m[:, system.te] += np.tensordot(system.aic_wake, zr, axes=([1], [0]))
+    return m
+
+
+def panel_forces_frequency(
+    system: UvlmSystem, shapes: np.ndarray, k_values: np.ndarray, derivative: str = "exact"
+) -> np.ndarray:
+    """Complex panel forces per unit harmonic u: [nk, K, m], in units of rho V^2 c_ref^2 (force up).
+
+    k = omega b / V on the root semichord b = c_ref / 2 (omega* = 2 k in t* units). ``derivative``:
+    "exact" (du/dt* = i omega* u, the continuous input) or "bdf2" (as the time march sees sampled signals).
+    dG/dt* is always the BDF2 of the march. Uses the wake's z^-(r+1) delay, one K x K solve per k.
+    """
+    if derivative not in ("exact", "bdf2"):
+        raise ValueError(f"derivative: must be 'exact' or 'bdf2', got {derivative!r}")
+    k_values = np.atleast_1d(np.asarray(k_values, dtype=float))
+    w_d, w_v = system.wash_matrices(shapes)
+    dt = system.dt_star
+    out = np.empty((k_values.size, system.n_panels, shapes.shape[1]), dtype=complex)
+    for n, kk in enumerate(k_values):  # loop over a handful of frequencies
+        om = 2.0 * kk
+        z = np.exp(1j * om * dt)
+        g_op = (1.5 - 2.0 / z + 0.5 / z**2) / dt
+        d_op = 1j * om if derivative == "exact" else g_op
+        g = np.linalg.solve(_z_wake(system, z), w_d + d_op * w_v)
+        out[n] = system.dy_hat[:, None] * (system.diff_x @ g + system.dx_hat[:, None] * g_op * g)
+    return out
+
+
+def frequency_response(
+    mesh: StandardMesh,
+    shapes: np.ndarray,
+    mach: float,
+    k_values: np.ndarray,
+    dt_star: float | None = None,
+    wake_chords: float = 20.0,
+    derivative: str = "exact",
+    system: UvlmSystem | None = None,
+) -> np.ndarray:
+    """Complex GAC transfer matrix H [nk, m, m] (m^3; H[k, i, j] = f_i per unit u_j) at reduced frequencies k.
+
+    k = omega b / V on b = c_ref / 2. ``dt_star`` defaults to 1 / n_chord. Pass a prebuilt ``system``
+    to reuse its factorization.
+    """
+    shapes = check_shapes(mesh, shapes)
+    if system is None:
+        system = build_uvlm(mesh, mach, dt_star or 1.0 / mesh.n_chord, wake_chords=wake_chords)
+    forces = panel_forces_frequency(system, shapes, k_values, derivative)
+    phi_f = system.interp_force @ shapes
+    return 2.0 * system.c_ref**2 * np.einsum("km,nkj->nmj", phi_f, forces)
+
+
+def uvlm_state_space(system: UvlmSystem, shapes: np.ndarray) -> dict[str, np.ndarray]:
+    """Full-order discrete state space of the UVLM with displacement input u (BDF2 du/dt*), t* step dt_star.
+
+    x(n) = [G_TE(n-1..n-nw) ; G(n-1) ; G(n-2) ; u(n-1) ; u(n-2)] -> returns dict A, B, C, D (f in m^3) such that
+    x(n+1) = A x(n) + B u(n), f(n) = C x(n) + D u(n). Built with the predictor removed (input at the same
+    step). Size ns*nw + 2K + 2m states: meant as a reference for small meshes.
+    """
+    shapes = check_shapes_system(system, shapes)
+    k, ns, nw, m = system.n_panels, system.n_span, system.n_wake, shapes.shape[1]
+    dt = system.dt_star
+    w_d, w_v = system.wash_matrices(shapes)
+    c_g, c_d = system.output_matrices(shapes)
+    p = sla.lu_solve(system.aic_lu, system.aic_wake.reshape(k, nw * ns))  # [K, nw*ns], row-block r = G_TE(n-1-r)
+    q_in = sla.lu_solve(system.aic_lu, np.column_stack([w_d + 1.5 / dt * w_v, -2.0 / dt * w_v, 0.5 / dt * w_v]))
+    b0, b1, b2 = q_in[:, :m], q_in[:, m : 2 * m], q_in[:, 2 * m :]
+    # G(n) = -P hist(n) + b0 u(n) + b1 u(n-1) + b2 u(n-2)
+    nx = nw * ns + 2 * k + 2 * m
+    iw, ig1, ig2 = slice(0, nw * ns), slice(nw * ns, nw * ns + k), slice(nw * ns + k, nw * ns + 2 * k)
+    iu1, iu2 = slice(nw * ns + 2 * k, nw * ns + 2 * k + m), slice(nw * ns + 2 * k + m, nx)
+    g_x = np.zeros((k, nx))  # G(n) = g_x x(n) + b0 u(n)
+    g_x[:, iw] = -p
+    g_x[:, iu1] = b1
+    g_x[:, iu2] = b2
+    a = np.zeros((nx, nx))
+    b = np.zeros((nx, m))
+    # new TE history: row 0 <- G_TE(n), others shift
+    a[0:ns, :] = g_x[system.te]
+    b[0:ns] = b0[system.te]
+    a[ns : nw * ns, 0 : (nw - 1) * ns] = np.eye((nw - 1) * ns)
+    a[ig1, :] = g_x
+    b[ig1] = b0
+    a[ig2, ig1] = np.eye(k)
+    b[iu1] = np.eye(m)
+    a[iu2, iu1] = np.eye(m)
+    # f(n) = c_g G(n) + c_d (1.5 G(n) - 2 G(n-1) + 0.5 G(n-2)) / dt
+    cg_tot = c_g + 1.5 / dt * c_d
+    c = cg_tot @ g_x
+    c[:, ig1] += -2.0 / dt * c_d
+    c[:, ig2] += 0.5 / dt * c_d
+    d = cg_tot @ b0
+    return {"A": a, "B": b, "C": c, "D": d}
+
+
+def check_shapes_system(system: UvlmSystem, shapes: np.ndarray) -> np.ndarray:
+    """Validate shapes [N, m] against the interpolation matrices of a system."""
+    arr = np.asarray(shapes, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2 or arr.shape[0] != system.interp_colloc.shape[1]:
+        raise ValueError(f"shapes: expected shape [{system.interp_colloc.shape[1]}, m], got {arr.shape}")
+    return arr
+
+
+@dataclass
+class UvlmSolver:
+    """Linear UVLM behind the UnsteadySolver protocol (subsonic; Prandtl-Glauert corrected)."""
+
+    wake_chords: float = 20.0
+    tip_inset: bool = True
+    name: str = "uvlm"
+
+    def info(self, mach: float) -> SolverInfo:
+        """Solver description and the warnings for results at ``mach``."""
+        return SolverInfo(
+            name=self.name,
+            description=(
+                f"linear vortex-ring UVLM, frozen flat wake of {self.wake_chords:g} chords, transpiration BC, "
+                "Prandtl-Glauert/Goethert compressibility"
+            ),
+            warnings=mach_warnings(float(mach)),
+        )
+
+    def build(self, mesh: StandardMesh, mach: float, dt_star: float) -> UvlmSystem:
+        """Assemble the system for ``mesh`` at ``mach`` and step ``dt_star``."""
+        return build_uvlm(mesh, mach, dt_star, wake_chords=self.wake_chords, tip_inset=self.tip_inset)
+
+    def simulate(
+        self,
+        mesh: StandardMesh,
+        shapes: np.ndarray,
+        signals: np.ndarray,
+        mach: float,
+        dt_star: float,
+        progress: ProgressFn | None = None,
+    ) -> np.ndarray:
+        """GAC [T, m] (m^3) for generalized displacements signals [T, m] of shapes [N, m] (m), from rest.
+
+        A 3-D ``signals`` [T, m, B] runs B independent cases as right-hand-side columns of one march and
+        returns [T, m, B]. du/dt* is the causal BDF2 of the samples.
+        """
+        shapes = check_shapes(mesh, shapes)
+        sig = np.asarray(signals, dtype=float)
+        batched = sig.ndim == 3
+        if batched:
+            if sig.shape[1] != shapes.shape[1] or sig.shape[0] < 2 or not np.all(np.isfinite(sig)):
+                raise ValueError(f"signals: expected finite [T>=2, {shapes.shape[1]}, B], got {sig.shape}")
+        else:
+            sig = check_signals(sig, shapes.shape[1])[:, :, None]
+        if progress is not None:
+            progress(0.0, "assembling UVLM influence coefficients")
+        system = self.build(mesh, mach, dt_star)
+        w_d, w_v = system.wash_matrices(shapes)
+        wash = np.einsum("km,tmb->tkb", w_d, sig) + np.einsum("km,tmb->tkb", w_v, bdf2(sig, system.dt_star))
+        g = march(system, wash, progress)
+        gac = _gac_time(system, shapes, g)
+        if progress is not None:
+            progress(1.0, "UVLM done")
+        return gac if batched else gac[:, :, 0]
