@@ -1,0 +1,255 @@
+"""Modal analysis of a wing definition: FE assembly, clamped-root eigenproblem, mapping to the standard mesh.
+
+Plate wings: DKT plate + mid-plane stiffening beam + leading-edge point mass (``PlateStructure``).
+Beam wings: Euler-Bernoulli bending-torsion beam on the elastic axis with rigid chordwise sections
+(``BeamStructure``), w(x, y) = h(y) - (x - x_ea) alpha(y).
+
+Modes are mass-normalized (phi^T M phi = 1), frequencies in Hz and rad/s, and each mode's sign is
+fixed so that its largest |w| on the standard mesh is positive.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import eigsh
+
+from romams_core.mesh import Planform, StandardMesh, standard_mesh
+from romams_core.structure.beam import beam_element_matrices, rectangle_torsion_constant
+from romams_core.structure.dkt import bernstein_coefficients, bernstein_values, cubic_mass, dkt_stiffness
+from romams_core.structure.plate_mesh import PlateMesh, locate, plate_mesh
+from romams_core.wing import BeamStructure, PlateStructure, WingDefinition
+
+
+@dataclass
+class ModalResult:
+    """Modes of one structure: frequencies (Hz, rad/s), mass-normalized w on the standard mesh [N, k] (m/sqrt(kg))."""
+
+    frequencies_hz: np.ndarray  # [k]
+    omega: np.ndarray  # [k] rad/s
+    shapes: np.ndarray  # [N, k] out-of-plane displacement on the standard mesh, mass-normalized
+    mass_kg: float  # total structural mass, kg
+    n_fe_nodes: int
+    fe_xy: np.ndarray  # [P, 2] FE node coordinates, m
+    fe_shapes: np.ndarray  # [P, k] w at the FE nodes
+    fe_triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=int))  # [E, 3] (plates)
+
+    @property
+    def n_modes(self) -> int:
+        """Number of modes k."""
+        return int(self.frequencies_hz.size)
+
+
+@dataclass
+class FEModel:
+    """Assembled FE model: sparse K (N/m ...) and M (kg ...) on 3 DOFs per node, with bookkeeping."""
+
+    K: sp.csc_matrix
+    M: sp.csc_matrix
+    free: np.ndarray  # [n_free] DOF indices not clamped
+    xy: np.ndarray  # [P, 2] node coordinates, m
+    mass_kg: float
+    interp: sp.csr_matrix  # [N_std, 3 P] map from DOFs to w on the standard mesh
+    triangles: np.ndarray  # [E, 3] (empty for beams)
+
+
+def _assemble(conn: np.ndarray, ke: np.ndarray, n_dof: int) -> sp.csc_matrix:
+    """Sparse global matrix from element matrices ke [E, n, n] with DOF connectivity conn [E, n]."""
+    rows = np.repeat(conn, conn.shape[1], axis=1).ravel()
+    cols = np.tile(conn, (1, conn.shape[1])).ravel()
+    return sp.coo_matrix((ke.ravel(), (rows, cols)), shape=(n_dof, n_dof)).tocsc()
+
+
+def _dofs(nodes: np.ndarray) -> np.ndarray:
+    """DOF connectivity [E, 3 n] of element node lists [E, n] (3 DOFs per node)."""
+    return (3 * nodes[:, :, None] + np.arange(3)).reshape(nodes.shape[0], -1)
+
+
+def naca4_thickness_form(xi: np.ndarray) -> np.ndarray:
+    """Symmetric NACA 4-digit thickness distribution at chord fractions xi, normalized to a maximum of 1."""
+    xi = np.clip(np.asarray(xi, dtype=float), 0.0, 1.0)
+    poly = 0.2969 * np.sqrt(xi) - 0.1260 * xi - 0.3516 * xi**2 + 0.2843 * xi**3 - 0.1015 * xi**4
+    return poly / 0.1502  # maximum of the polynomial (at xi = 0.2998) is 0.15015
+
+
+def plate_thickness(planform: Planform, s: PlateStructure, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Plate thickness (m) at points x, y (m)."""
+    if s.thickness_form == "constant":
+        t = np.full(np.shape(x), s.thickness)
+    else:
+        xi, _ = planform.to_xi_eta(x, y)
+        tmax = s.thickness_to_chord * planform.chord(y)
+        t = tmax * np.maximum(naca4_thickness_form(xi), s.min_thickness_fraction)
+    return t * s.thickness_ratio
+
+
+def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None = None) -> FEModel:
+    """Assemble the plate (+ beam + lumped mass) FE model with a clamped root."""
+    beam = s.beam
+    pm = plate_mesh(planform, s.fe_n_chord, s.fe_n_span, None if beam is None else (beam.root_position,
+                                                                                    beam.tip_position))
+    n_dof = 3 * pm.n_nodes
+    tri = pm.triangles
+    exy = pm.xy[tri]  # [E, 3, 2]
+    cen = exy.mean(axis=1)
+    h = plate_thickness(planform, s, cen[:, 0], cen[:, 1])
+    q = s.material.plane_stress_q()
+    d = (h**3 / 12.0)[:, None, None] * q[None]
+    ke = dkt_stiffness(exy, d)
+    me = cubic_mass(exy, s.material.density * h)
+    conn = _dofs(tri)
+    K = _assemble(conn, ke, n_dof)
+    M = _assemble(conn, me, n_dof)
+    area = 0.5 * np.abs(np.cross(exy[:, 1] - exy[:, 0], exy[:, 2] - exy[:, 0]))
+    mass = float(np.sum(s.material.density * h * area))
+    if beam is not None:
+        bn = pm.beam_nodes()
+        bnodes = np.column_stack([bn[:-1], bn[1:]])
+        bh, bw = beam.height, beam.width
+        a = bh * bw
+        ei = beam.material.E1 * bw * bh**3 / 12.0
+        gj = beam.material.G12 * rectangle_torsion_constant(bh, bw)
+        rho = beam.material.density
+        kb, mb = beam_element_matrices(pm.xy[bnodes], ei, gj, rho * a, 0.0, rho * a * (bh**2 + bw**2) / 12.0)
+        bconn = _dofs(bnodes)
+        K = K + _assemble(bconn, kb, n_dof)
+        M = M + _assemble(bconn, mb, n_dof)
+        mass += float(rho * a * np.sum(np.linalg.norm(pm.xy[bn[1:]] - pm.xy[bn[:-1]], axis=1)))
+    if s.lumped_mass is not None and s.lumped_mass.mass > 0.0:
+        lm = s.lumped_mass
+        pos = lm.span_fraction * pm.n_span
+        j0 = int(min(np.floor(pos), pm.n_span - 1))
+        u = pos - j0
+        na, nb = pm.node(0, j0), pm.node(0, j0 + 1)
+        dvec = pm.xy[nb] - pm.xy[na]
+        length = float(np.linalg.norm(dvec))
+        tvec = dvec / length
+        hv = np.array([1 - 3 * u**2 + 2 * u**3, length * (u - 2 * u**2 + u**3), 3 * u**2 - 2 * u**3,
+                       length * (-(u**2) + u**3)])
+        nvec = np.array([hv[0], hv[1] * tvec[0], hv[1] * tvec[1], hv[2], hv[3] * tvec[0], hv[3] * tvec[1]])
+        idx = np.r_[3 * na : 3 * na + 3, 3 * nb : 3 * nb + 3]
+        M = M + _assemble(idx[None], (lm.mass * np.outer(nvec, nvec))[None], n_dof)
+        mass += float(lm.mass)
+    root = pm.node(np.arange(pm.n_chord + 1), 0)
+    clamped = np.zeros(n_dof, dtype=bool)
+    clamped[_dofs(root[None]).ravel()] = True
+    mesh = mesh if mesh is not None else standard_mesh(planform)
+    return FEModel(K=K.tocsc(), M=M.tocsc(), free=np.flatnonzero(~clamped), xy=pm.xy, mass_kg=mass,
+                   interp=plate_interpolation(pm, planform, mesh.x, mesh.y), triangles=tri)
+
+
+def plate_interpolation(pm: PlateMesh, planform: Planform, x: np.ndarray, y: np.ndarray) -> sp.csr_matrix:
+    """Sparse [P_target, 3 P] map from plate DOFs to w at points (m), by the elements' cubic interpolation."""
+    t, lam = locate(pm, x, y, planform.semispan)
+    tri = pm.triangles[t]
+    c = bernstein_coefficients(pm.xy[tri])  # [P, 10, 9]
+    vals = np.einsum("pa,pai->pi", bernstein_values(lam), c)
+    rows = np.repeat(np.arange(t.size), 9)
+    return sp.csr_matrix((vals.ravel(), (rows, _dofs(tri).ravel())), shape=(t.size, 3 * pm.n_nodes))
+
+
+def beam_model(planform: Planform, s: BeamStructure, mesh: StandardMesh | None = None) -> FEModel:
+    """Assemble the elastic-axis beam FE model (bending, torsion, CG-offset coupling) with a clamped root."""
+    ne = s.n_elements
+    eta = np.linspace(0.0, 1.0, ne + 1)
+    x, y = planform.to_xy(np.full(ne + 1, s.ea_chord_fraction), eta)
+    xy = np.column_stack([x, y])
+    nodes = np.column_stack([np.arange(ne), np.arange(1, ne + 1)])
+    exy = xy[nodes]
+    ymid = exy[:, :, 1].mean(axis=1)
+    chord = planform.chord(ymid)
+    d = exy[:, 1] - exy[:, 0]
+    tvec = d / np.linalg.norm(d, axis=1)[:, None]
+    offset = (s.cg_chord_fraction - s.ea_chord_fraction) * chord * tvec[:, 1]  # streamwise offset projected on n
+    m = s.mass_per_length
+    kb, mb = beam_element_matrices(exy, s.EI, s.GJ, m, m * offset, s.inertia_ea_per_length)
+    n_dof = 3 * (ne + 1)
+    conn = _dofs(nodes)
+    K = _assemble(conn, kb, n_dof)
+    M = _assemble(conn, mb, n_dof)
+    free = np.arange(3, n_dof)
+    mesh = mesh if mesh is not None else standard_mesh(planform)
+    # standard mesh: w = Hermite(w, grad w . t) along the axis + (x - x_ea(y)) * linear(w_x)
+    eta_p = np.clip(mesh.y / planform.semispan, 0.0, 1.0)
+    e = np.minimum((eta_p * ne).astype(int), ne - 1)
+    u = eta_p * ne - e
+    length = np.linalg.norm(d, axis=1)[e]
+    tv = tvec[e]
+    h = np.column_stack([1 - 3 * u**2 + 2 * u**3, length * (u - 2 * u**2 + u**3), 3 * u**2 - 2 * u**3,
+                         length * (-(u**2) + u**3)])
+    x_ea = planform.to_xy(np.full_like(eta_p, s.ea_chord_fraction), eta_p)[0]
+    dx = mesh.x - x_ea
+    vals = np.column_stack([
+        h[:, 0], h[:, 1] * tv[:, 0] + (1 - u) * dx, h[:, 1] * tv[:, 1],
+        h[:, 2], h[:, 3] * tv[:, 0] + u * dx, h[:, 3] * tv[:, 1],
+    ])
+    rows = np.repeat(np.arange(mesh.n_nodes), 6)
+    interp = sp.csr_matrix((vals.ravel(), (rows, conn[e].ravel())), shape=(mesh.n_nodes, n_dof))
+    mass = float(m * np.sum(np.linalg.norm(d, axis=1)))
+    return FEModel(K=K, M=M, free=free, xy=xy, mass_kg=mass, interp=interp, triangles=np.zeros((0, 3), dtype=int))
+
+
+def build_model(
+    wing: WingDefinition,
+    design: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
+    mesh: StandardMesh | None = None,
+) -> FEModel:
+    """FE model of a wing's structure for a design (None: the baseline)."""
+    s = wing.structure_for(design)
+    if isinstance(s, BeamStructure):
+        return beam_model(wing.planform, s, mesh)
+    return plate_model(wing.planform, s, mesh)
+
+
+def solve_modes(model: FEModel, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest eigenpairs: omega [k] (rad/s) and mass-normalized full-DOF modes [3P, k] (clamped DOFs zero)."""
+    f = model.free
+    kff = model.K[f][:, f]
+    mff = model.M[f][:, f]
+    if not 1 <= n_modes < f.size:
+        raise ValueError(f"n_modes: must be in [1, {f.size - 1}], got {n_modes}")
+    if f.size <= 60:
+        from scipy.linalg import eigh
+
+        lam, vec = eigh(kff.toarray(), mff.toarray(), subset_by_index=(0, n_modes - 1))
+    else:
+        lam, vec = eigsh(kff, k=n_modes, M=mff, sigma=0.0, which="LM")
+    order = np.argsort(lam)
+    lam, vec = lam[order], vec[:, order]
+    gm = np.einsum("ik,ik->k", vec, mff @ vec)
+    vec = vec / np.sqrt(gm)[None, :]
+    phi = np.zeros((model.K.shape[0], n_modes))
+    phi[f] = vec
+    return np.sqrt(np.maximum(lam, 0.0)), phi
+
+
+def modal_analysis(
+    wing: WingDefinition,
+    design: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
+    n_modes: int = 4,
+    mesh: StandardMesh | None = None,
+) -> ModalResult:
+    """Lowest n_modes modes of a wing design (None: baseline), mapped to the standard mesh (default: the wing's)."""
+    if isinstance(n_modes, bool) or not isinstance(n_modes, int | np.integer) or n_modes < 1:
+        raise ValueError(f"n_modes: must be a positive integer, got {n_modes!r}")
+    mesh = mesh if mesh is not None else standard_mesh(wing.planform)
+    model = build_model(wing, design, mesh)
+    omega, phi = solve_modes(model, int(n_modes))
+    shapes = model.interp @ phi
+    imax = np.argmax(np.abs(shapes), axis=0)
+    sign = np.where(shapes[imax, np.arange(shapes.shape[1])] < 0.0, -1.0, 1.0)
+    shapes = shapes * sign
+    fe_w = phi[0::3] * sign
+    return ModalResult(
+        frequencies_hz=omega / (2.0 * np.pi),
+        omega=omega,
+        shapes=shapes,
+        mass_kg=model.mass_kg,
+        n_fe_nodes=int(model.xy.shape[0]),
+        fe_xy=model.xy,
+        fe_shapes=fe_w,
+        fe_triangles=model.triangles,
+    )
