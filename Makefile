@@ -9,7 +9,7 @@ $(BIN)/romams: pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
-	$(BIN)/pip install -q --no-deps 'pyNastran==1.4.1' || echo "pyNastran not installed: Nastran OP2/BDF support disabled"
+	$(BIN)/pip install -q --no-deps 'pyNastran==1.4.1' 'cpylog>=1.5' || echo "pyNastran not installed: Nastran OP2/BDF support disabled"
 	touch $(BIN)/romams
 
 install: $(BIN)/romams

@@ -1,0 +1,421 @@
+"""External mode shapes (JSON, NPZ, Nastran BDF + OP2) and their mapping onto the standard mesh.
+
+An external structure arrives as FE node coordinates [P, 3] (m), out-of-plane displacements per
+mode [P, k] (m per unit modal coordinate), natural frequencies [k] (Hz) and, optionally, the
+generalized masses [k] (kg m^2 per unit modal coordinate squared, i.e. phi^T M phi) and the
+structural mass (kg). Shapes with generalized masses are mass-normalized by dividing by
+sqrt(generalized mass); without them they are taken as already mass-normalized (Nastran's
+default EIGRL normalization, NORM=MASS).
+
+The node coordinates must be in the wing's frame (x aft, y span from the root, z up, metres).
+Nodes are projected on the wing plane (z dropped) and interpolated onto the standard mesh with
+:func:`romams_core.structure.mapping.map_to_mesh`, after checking that they cover the planform.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import warnings
+import zipfile
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial import Delaunay, QhullError, cKDTree
+
+from romams_core.mesh import StandardMesh
+from romams_core.structure.mapping import map_to_mesh
+
+PathLike = str | os.PathLike[str]
+
+# coverage tolerances, in planform fractions (chord fraction xi, span fraction eta)
+_MAX_GAP = 0.2  # every standard-mesh node needs an FE node within this (xi, eta) distance
+_MIN_INSIDE = 0.9  # fraction of (slightly shrunk) standard-mesh nodes inside the FE nodes' hull
+_MIN_ON_WING = 0.9  # fraction of FE nodes on the planform grown by _MARGIN
+_MARGIN = 0.05
+_MAX_Z_SPREAD = 0.1  # out-of-plane node spread, fraction of max(root chord, semispan)
+
+
+@dataclass
+class ExternalModes:
+    """Mode shapes of a structure from an outside FE model (m, Hz, kg)."""
+
+    nodes: np.ndarray  # [P, 3] node coordinates, m
+    shapes: np.ndarray  # [P, k] out-of-plane displacement per mode
+    frequencies_hz: np.ndarray  # [k] natural frequencies, Hz
+    generalized_masses: np.ndarray | None = None  # [k] phi^T M phi, or None if mass-normalized
+    mass_kg: float | None = None  # structural mass, kg
+    source: str = ""  # where the modes came from (file name, "json", ...)
+
+    def __post_init__(self) -> None:
+        nodes = _float_array("nodes", self.nodes)
+        if nodes.ndim != 2 or nodes.shape[1] not in (2, 3):
+            raise ValueError(f"nodes: expected shape [P, 3] (or [P, 2]), got {nodes.shape}")
+        if nodes.shape[1] == 2:
+            nodes = np.column_stack([nodes, np.zeros(nodes.shape[0])])
+        n_pts = nodes.shape[0]
+        if n_pts < 3:
+            raise ValueError(f"nodes: need at least 3 nodes, got {n_pts}")
+        freqs = _float_array("frequencies_hz", self.frequencies_hz)
+        if freqs.ndim != 1 or freqs.size < 1:
+            raise ValueError(f"frequencies_hz: expected a non-empty list [k], got shape {freqs.shape}")
+        if np.any(freqs <= 0.0):
+            raise ValueError(f"frequencies_hz: must all be > 0 Hz, got {freqs[freqs <= 0.0].tolist()[:5]}")
+        k = freqs.size
+        shapes = _float_array("shapes", self.shapes)
+        if shapes.ndim == 1 and k == 1:
+            shapes = shapes[:, None]
+        if shapes.ndim != 2 or shapes.shape != (n_pts, k):
+            raise ValueError(
+                f"shapes: expected [{n_pts} nodes, {k} modes] to match nodes and frequencies_hz, got {shapes.shape}"
+            )
+        zero = np.flatnonzero(~np.any(shapes != 0.0, axis=0))
+        if zero.size:
+            raise ValueError(f"shapes: modes {zero.tolist()} are identically zero")
+        gm = None
+        if self.generalized_masses is not None:
+            gm = _float_array("generalized_masses", self.generalized_masses).ravel()
+            if gm.size != k:
+                raise ValueError(f"generalized_masses: expected {k} values (one per mode), got {gm.size}")
+            if np.any(gm <= 0.0):
+                raise ValueError("generalized_masses: must all be > 0")
+        mass = self.mass_kg
+        if mass is not None:
+            if not (isinstance(mass, int | float | np.floating | np.integer) and math.isfinite(mass) and mass > 0):
+                raise ValueError(f"mass_kg: must be a finite number > 0 or null, got {mass!r}")
+            mass = float(mass)
+        self.nodes, self.shapes, self.frequencies_hz = nodes, shapes, freqs
+        self.generalized_masses, self.mass_kg = gm, mass
+
+    @property
+    def n_modes(self) -> int:
+        """Number of modes k."""
+        return int(self.frequencies_hz.size)
+
+    def mass_normalized_shapes(self) -> np.ndarray:
+        """Shapes [P, k] scaled to unit generalized mass (m per unit modal coordinate)."""
+        if self.generalized_masses is None:
+            return self.shapes.copy()
+        return self.shapes / np.sqrt(self.generalized_masses)
+
+
+def _float_array(name: str, value: Any) -> np.ndarray:
+    """Finite float array from ``value``; ValueError naming ``name`` otherwise."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: not a numeric array ({exc})") from None
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: contains NaN or infinite values")
+    return arr
+
+
+def _shapes_from_modes_first(name: str, value: Any, n_nodes: int, n_modes: int) -> np.ndarray:
+    """Shapes given one row per mode ([k][P], as in the API) or [P, k] -> [P, k]."""
+    arr = _float_array(name, value)
+    if arr.ndim == 2 and arr.shape == (n_modes, n_nodes):
+        return arr.T
+    if arr.ndim == 2 and arr.shape == (n_nodes, n_modes):
+        return arr
+    if arr.ndim == 1 and n_modes == 1 and arr.size == n_nodes:
+        return arr[:, None]
+    raise ValueError(
+        f"{name}: expected {n_modes} modes x {n_nodes} nodes (one list per mode) to match nodes and "
+        f"frequencies_hz, got shape {arr.shape}"
+    )
+
+
+def modes_from_dict(d: Mapping[str, Any], source: str = "json") -> ExternalModes:
+    """ExternalModes from a mapping with keys nodes, shapes, frequencies_hz[, generalized_masses, mass_kg]."""
+    if not isinstance(d, Mapping):
+        raise ValueError(f"modes: expected a JSON object, got {type(d).__name__}")
+    for key in ("nodes", "shapes", "frequencies_hz"):
+        if key not in d:
+            raise ValueError(f"{key}: missing (required keys: nodes, shapes, frequencies_hz)")
+    nodes = _float_array("nodes", d["nodes"])
+    freqs = _float_array("frequencies_hz", d["frequencies_hz"])
+    if nodes.ndim != 2 or freqs.ndim != 1:
+        raise ValueError(
+            f"nodes: expected [P, 3] with frequencies_hz [k]; got nodes {nodes.shape}, frequencies_hz {freqs.shape}"
+        )
+    shapes = _shapes_from_modes_first("shapes", d["shapes"], nodes.shape[0], freqs.size)
+    return ExternalModes(
+        nodes=nodes,
+        shapes=shapes,
+        frequencies_hz=freqs,
+        generalized_masses=d.get("generalized_masses"),
+        mass_kg=d.get("mass_kg"),
+        source=source,
+    )
+
+
+def load_modes_json(src: PathLike | Mapping[str, Any]) -> ExternalModes:
+    """Read external modes from a JSON file (or an already parsed dict); shapes one list per mode."""
+    if isinstance(src, Mapping):
+        return modes_from_dict(src, "json")
+    if not isinstance(src, str | os.PathLike):
+        raise ValueError(f"modes: expected a file path or a mapping, got {type(src).__name__}")
+    path = Path(src)
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"json: {path.name} is not valid JSON ({exc})") from None
+    return modes_from_dict(data, path.name)
+
+
+def load_modes_npz(path: PathLike) -> ExternalModes:
+    """Read external modes from an NPZ (nodes [P, 3], shapes [P, k], frequencies_hz [k], optional extras)."""
+    path = Path(path)
+    if not path.is_file() or not zipfile.is_zipfile(path):
+        raise ValueError(f"npz: {path.name} is not a readable NPZ archive")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            data: dict[str, Any] = {}
+            for key in z.files:
+                try:
+                    data[key] = z[key]
+                except ValueError as exc:  # object arrays need pickle: refused
+                    raise ValueError(f"{key}: cannot be read without pickle ({exc})") from None
+    except (OSError, EOFError) as exc:
+        raise ValueError(f"npz: {path.name} is not a readable NPZ archive ({exc})") from None
+    for key in ("generalized_masses", "mass_kg"):
+        if key in data and data[key].size == 0:
+            data.pop(key)
+    if "mass_kg" in data:
+        data["mass_kg"] = float(np.asarray(data["mass_kg"]).ravel()[0])
+    for key in ("nodes", "shapes", "frequencies_hz"):
+        if key not in data:
+            raise ValueError(f"{key}: missing from {path.name} (required keys: nodes, shapes, frequencies_hz)")
+    nodes = _float_array("nodes", data["nodes"])
+    freqs = _float_array("frequencies_hz", data["frequencies_hz"]).ravel()
+    shapes = _float_array("shapes", data["shapes"])
+    if nodes.ndim == 2 and shapes.ndim == 2 and shapes.shape == (freqs.size, nodes.shape[0]) != shapes.T.shape:
+        shapes = shapes.T  # [k, P] given: unambiguous since k != P
+    return ExternalModes(
+        nodes=nodes,
+        shapes=shapes,
+        frequencies_hz=freqs,
+        generalized_masses=data.get("generalized_masses"),
+        mass_kg=data.get("mass_kg"),
+        source=path.name,
+    )
+
+
+@contextlib.contextmanager
+def _numpy2_aliases() -> Iterator[None]:
+    """Temporarily provide ``np.in1d`` (removed in numpy 2.4), which pyNastran 1.4.1 binds at import."""
+    added = not hasattr(np, "in1d")
+    if added:
+
+        def in1d(ar1: Any, ar2: Any, assume_unique: bool = False, invert: bool = False) -> np.ndarray:
+            return np.isin(np.ravel(ar1), ar2, assume_unique=assume_unique, invert=invert)
+
+        setattr(np, "in1d", in1d)  # noqa: B010 (name removed from numpy)
+    try:
+        yield
+    finally:
+        if added:
+            delattr(np, "in1d")  # noqa: B043
+
+
+def _import_pynastran() -> tuple[type, type]:
+    """pyNastran's BDF and OP2 classes, or ImportError saying how to install it."""
+    try:
+        with _numpy2_aliases():
+            from pyNastran.bdf.bdf import BDF
+            from pyNastran.op2.op2 import OP2
+    except ImportError as exc:
+        raise ImportError(
+            "Nastran BDF/OP2 input needs pyNastran: pip install --no-deps 'pyNastran==1.4.1' cpylog "
+            f"(or `make install`); import failed: {exc}"
+        ) from exc
+    return BDF, OP2
+
+
+def _bdf_is_bulk_only(path: Path) -> bool:
+    """True when a BDF has no BEGIN BULK line (a bulk-data-only 'punch' file)."""
+    with path.open("r", errors="replace") as f:
+        return not any(line.lstrip().upper().startswith("BEGIN") and "BULK" in line.upper() for line in f)
+
+
+def _grid_basic(model: Any, nids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Basic-frame positions [n, 3] (m) and output (CD) frame ids [n] of GRIDs ``nids``."""
+    missing = [int(n) for n in nids if int(n) not in model.nodes]
+    if missing:
+        raise ValueError(f"bdf: GRIDs {missing[:10]} of the OP2 eigenvectors are not in the BDF")
+    nodes = [model.nodes[int(n)] for n in nids]
+    xyz = np.array([nd.get_position() for nd in nodes], dtype=float)
+    cd = np.array([int(nd.cd) for nd in nodes], dtype=int)
+    return xyz, cd
+
+
+def _translations_to_basic(model: Any, t: np.ndarray, cd: np.ndarray) -> np.ndarray:
+    """Rotate translations [k, n, 3] from each node's rectangular output frame to the basic frame."""
+    out = t.copy()
+    for cid in np.unique(cd[cd != 0]):  # a handful of coordinate systems
+        coord = model.coords.get(int(cid))
+        if coord is None:
+            raise ValueError(f"bdf: output coordinate system CD={cid} is not defined")
+        if coord.Type != "R":
+            raise ValueError(f"bdf: output coordinate system CD={cid} is {coord.type}; only rectangular is supported")
+        if coord.i is None:
+            coord.setup()
+        rot = np.vstack([coord.i, coord.j, coord.k])  # rows: local unit axes in the basic frame
+        sel = cd == cid
+        out[:, sel, :] = t[:, sel, :] @ rot
+    return out
+
+
+def load_modes_nastran(
+    bdf_path: PathLike,
+    op2_path: PathLike,
+    subcase: int | None = None,
+    n_modes: int | None = None,
+) -> ExternalModes:
+    """Read GRID coordinates (BDF) and SOL 103 real eigenvectors + eigenvalues (OP2) through pyNastran.
+
+    The out-of-plane displacement is the basic-frame T3 component (rectangular output frames are
+    rotated to basic). Frequencies come from the eigenvalues (sqrt(lambda) / 2 pi); generalized
+    masses from the LAMA table when present (else the vectors are taken as mass-normalized).
+    """
+    bdf_file, op2_file = Path(bdf_path), Path(op2_path)
+    for name, p in (("bdf", bdf_file), ("op2", op2_file)):
+        if not p.is_file():
+            raise ValueError(f"{name}: file {p.name!r} not found")
+    BDF, OP2 = _import_pynastran()
+    model = BDF(debug=None)
+    try:
+        model.read_bdf(str(bdf_file), validate=False, xref=False, punch=_bdf_is_bulk_only(bdf_file))
+        model.cross_reference(
+            xref_nodes=True, xref_elements=False, xref_properties=False, xref_masses=False,
+            xref_materials=False, xref_loads=False, xref_constraints=False, xref_aero=False,
+            xref_sets=False, xref_optimization=False,
+        )
+    except ValueError:
+        raise
+    except Exception as exc:  # pyNastran raises many types on malformed decks
+        raise ValueError(f"bdf: cannot read {bdf_file.name} ({type(exc).__name__}: {exc})") from None
+    if not model.nodes:
+        raise ValueError(f"bdf: {bdf_file.name} defines no GRID")
+    op2 = OP2(debug=None)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)  # np.chararray inside pyNastran 1.4.1
+            op2.read_op2(str(op2_file), build_dataframe=False)
+    except Exception as exc:
+        raise ValueError(f"op2: cannot read {op2_file.name} ({type(exc).__name__}: {exc})") from None
+    vecs = {k: v for k, v in op2.eigenvectors.items() if getattr(v, "is_real", True)}
+    if not vecs:
+        raise ValueError(f"op2: {op2_file.name} holds no real eigenvectors (a SOL 103 run with DISP output)")
+    keys = sorted(vecs, key=str)
+    if subcase is None:
+        if len(keys) > 1:
+            raise ValueError(f"subcase: {op2_file.name} has several eigenvector subcases {keys}; choose one")
+        key = keys[0]
+    else:
+        match = [k for k in keys if k == subcase or (isinstance(k, tuple) and k[0] == subcase)]
+        if not match:
+            raise ValueError(f"subcase: {subcase} not in {op2_file.name} (has {keys})")
+        key = match[0]
+    vec = vecs[key]
+    data = np.asarray(vec.data, dtype=float)  # [k, n, 6]
+    grid = np.asarray(vec.node_gridtype)[:, 1] == 1  # GRID points only (no SPOINT/EPOINT)
+    nids = np.asarray(vec.node_gridtype)[grid, 0]
+    eigns = np.asarray(getattr(vec, "eigns", []), dtype=float)
+    modes = np.asarray(getattr(vec, "modes", np.arange(1, data.shape[0] + 1)), dtype=int)
+    if eigns.size != data.shape[0]:
+        raise ValueError(f"op2: {eigns.size} eigenvalues for {data.shape[0]} eigenvectors")
+    if np.any(eigns < 0.0):
+        raise ValueError(f"frequencies_hz: negative eigenvalues {eigns[eigns < 0].tolist()[:5]} (rigid-body modes?)")
+    xyz, cd = _grid_basic(model, nids)
+    t_basic = _translations_to_basic(model, data[:, grid, :3], cd)
+    gm = None
+    for lama in op2.eigenvalues.values():  # LAMA: generalized masses of the same modes
+        lam_modes = np.asarray(lama.mode, dtype=int)
+        if np.all(np.isin(modes, lam_modes)):
+            order = {int(m): i for i, m in enumerate(lam_modes)}
+            gm = np.asarray(lama.generalized_mass, dtype=float)[[order[int(m)] for m in modes]]
+            break
+    k = data.shape[0] if n_modes is None else int(n_modes)
+    if not 1 <= k <= data.shape[0]:
+        raise ValueError(f"n_modes: must be in [1, {data.shape[0]}], got {n_modes!r}")
+    return ExternalModes(
+        nodes=xyz,
+        shapes=t_basic[:k, :, 2].T,
+        frequencies_hz=np.sqrt(eigns[:k]) / (2.0 * np.pi),
+        generalized_masses=None if gm is None else gm[:k],
+        mass_kg=None,
+        source=op2_file.name,
+    )
+
+
+def check_coverage(points_xy: np.ndarray, mesh: StandardMesh) -> None:
+    """Raise ValueError unless FE points [P, 2] (m) lie on and cover the planform of ``mesh``."""
+    pts = np.asarray(points_xy, dtype=float)
+    xi, eta = mesh.planform.to_xi_eta(pts[:, 0], pts[:, 1])
+    fe = np.column_stack([xi, eta])
+    on_wing = np.all((fe >= -_MARGIN) & (fe <= 1.0 + _MARGIN), axis=1)
+    if on_wing.mean() < _MIN_ON_WING:
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        raise ValueError(
+            f"nodes: only {on_wing.mean():.0%} of the FE nodes lie on the planform (nodes span "
+            f"x {lo[0]:.4g}..{hi[0]:.4g} m, y {lo[1]:.4g}..{hi[1]:.4g} m; wrong units or axes? "
+            "x aft, y span from the root, metres)"
+        )
+    if np.unique(np.round(pts / max(np.ptp(pts), 1e-300), 12), axis=0).shape[0] < pts.shape[0]:
+        raise ValueError("nodes: two or more nodes share the same in-plane position")
+    m_xi, m_eta = mesh.planform.to_xi_eta(mesh.x, mesh.y)
+    target = np.column_stack([m_xi, m_eta])
+    gap, _ = cKDTree(fe).query(target)
+    try:
+        hull = Delaunay(fe)
+    except QhullError:
+        raise ValueError("nodes: the FE nodes are collinear and cannot cover the planform") from None
+    shrunk = 0.5 + (target - 0.5) * 0.96  # tolerate round-off and edge nodes slightly inside the edges
+    inside = float(np.mean(hull.find_simplex(shrunk) >= 0))
+    if gap.max() > _MAX_GAP or inside < _MIN_INSIDE:
+        raise ValueError(
+            f"nodes: the FE nodes do not cover the planform (largest gap {gap.max():.2f} in chord/span fractions, "
+            f"{inside:.0%} of the wing inside the nodes' hull; need <= {_MAX_GAP} and >= {_MIN_INSIDE:.0%})"
+        )
+
+
+def external_modal_result(modes: ExternalModes, mesh: StandardMesh, smooth: bool = True) -> Any:
+    """ModalResult (mass-normalized shapes on the standard mesh, sorted by frequency) of external modes."""
+    from romams_core.structure.modal import ModalResult
+
+    planform = mesh.planform
+    z = modes.nodes[:, 2]
+    if np.ptp(z) > _MAX_Z_SPREAD * max(planform.root_chord, planform.semispan):
+        raise ValueError(
+            f"nodes: z spans {np.ptp(z):.4g} m; the nodes must lie near the wing plane z = 0 (x aft, y span, z up)"
+        )
+    xy = modes.nodes[:, :2]
+    check_coverage(xy, mesh)
+    order = np.argsort(modes.frequencies_hz, kind="stable")
+    fe_shapes = modes.mass_normalized_shapes()[:, order]
+    shapes = map_to_mesh(xy, fe_shapes, mesh, smooth=smooth)
+    sign = _sign_convention(shapes)
+    freqs = modes.frequencies_hz[order]
+    return ModalResult(
+        frequencies_hz=freqs,
+        omega=2.0 * np.pi * freqs,
+        shapes=shapes * sign,
+        mass_kg=math.nan if modes.mass_kg is None else float(modes.mass_kg),
+        n_fe_nodes=int(xy.shape[0]),
+        fe_xy=xy.copy(),
+        fe_shapes=fe_shapes * sign,
+    )
+
+
+def _sign_convention(shapes: np.ndarray) -> np.ndarray:
+    """Signs [k] that make each column's largest-magnitude entry positive."""
+    idx = np.argmax(np.abs(shapes), axis=0)
+    s = np.sign(shapes[idx, np.arange(shapes.shape[1])])
+    s[s == 0] = 1.0
+    return s
