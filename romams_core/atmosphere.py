@@ -1,0 +1,104 @@
+"""International Standard Atmosphere (wrapper around the ``ambiance`` package).
+
+All inputs and outputs are SI: geometric altitude h in m, density in kg/m^3, speed of sound in m/s,
+temperature in K, pressure in Pa, dynamic pressure in Pa. The valid altitude range is that of
+``ambiance`` (about -5 km to 81 km); outside it the functions raise ValueError unless ``clamp`` is set.
+
+The flight dynamic pressure at Mach M is q = 0.5 rho (M a)^2 = 0.5 gamma p M^2 (gamma = 1.4, since
+a^2 = gamma p / rho), so the altitude for a given (q, M) follows from the static pressure alone.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from ambiance import Atmosphere
+
+GAMMA_AIR = 1.4
+H_MIN_M = -5004.0  # ambiance's lower limit (m); hard-coded so as not to depend on its internals
+H_MAX_M = 81020.0  # ambiance's upper limit (m)
+_P_AT_H_MIN = float(Atmosphere(H_MIN_M).pressure[0])
+_P_AT_H_MAX = float(Atmosphere(H_MAX_M).pressure[0])
+
+
+@dataclass(frozen=True)
+class AtmosphereState:
+    """ISA state at altitude(s): h (m), rho (kg/m^3), a (m/s), temperature (K), pressure (Pa)."""
+
+    altitude_m: np.ndarray
+    rho: np.ndarray
+    a: np.ndarray
+    temperature: np.ndarray
+    pressure: np.ndarray
+
+
+def _check_altitude(h: np.ndarray, clamp: bool, name: str = "altitude_m") -> np.ndarray:
+    """Validate/clamp altitudes (m) against the table range of ambiance."""
+    h = np.asarray(h, dtype=float)
+    if not np.all(np.isfinite(h)):
+        raise ValueError(f"{name}: must be finite, got {h!r}")
+    if clamp:
+        return np.clip(h, H_MIN_M, H_MAX_M)
+    if np.any(h < H_MIN_M) or np.any(h > H_MAX_M):
+        raise ValueError(f"{name}: outside the standard atmosphere range [{H_MIN_M:g}, {H_MAX_M:g}] m, got {h!r}")
+    return h
+
+
+def isa(altitude_m: float | np.ndarray, clamp: bool = False) -> AtmosphereState:
+    """ISA state at geometric altitude(s) ``altitude_m`` (m); arrays keep the input shape."""
+    h = _check_altitude(altitude_m, clamp)
+    flat = np.atleast_1d(h).ravel()
+    atm = Atmosphere(flat)
+    shape = h.shape
+
+    def _r(v: np.ndarray) -> np.ndarray:
+        return np.asarray(v, dtype=float).reshape(shape)
+
+    return AtmosphereState(h.copy(), _r(atm.density), _r(atm.speed_of_sound), _r(atm.temperature), _r(atm.pressure))
+
+
+def density(altitude_m: float, clamp: bool = False) -> float:
+    """Air density (kg/m^3) at altitude ``altitude_m`` (m)."""
+    return float(isa(altitude_m, clamp).rho)
+
+
+def speed_of_sound(altitude_m: float, clamp: bool = False) -> float:
+    """Speed of sound (m/s) at altitude ``altitude_m`` (m)."""
+    return float(isa(altitude_m, clamp).a)
+
+
+def flight_dynamic_pressure(mach: float, altitude_m: float | np.ndarray, clamp: bool = False) -> np.ndarray | float:
+    """Dynamic pressure q = 0.5 rho (M a)^2 (Pa) at Mach ``mach`` and altitude(s) (m)."""
+    _check_mach(mach)
+    st = isa(altitude_m, clamp)
+    q = 0.5 * st.rho * (mach * st.a) ** 2
+    return float(q) if np.ndim(q) == 0 else q
+
+
+def _check_mach(mach: float) -> None:
+    """Raise ValueError unless 0 < mach is finite."""
+    if not (isinstance(mach, int | float | np.floating) and math.isfinite(mach) and mach > 0):
+        raise ValueError(f"mach: must be a finite number > 0, got {mach!r}")
+
+
+def altitude_for_dynamic_pressure(q_pa: float, mach: float, clamp: bool = False) -> float:
+    """Geometric altitude (m) where 0.5 rho(h) (M a(h))^2 equals ``q_pa`` (Pa) at Mach ``mach``.
+
+    The static pressure there is p = q / (0.5 gamma M^2). With ``clamp`` a q above the value at the
+    lowest table altitude returns that altitude (-5004 m) and a q below the value at the top returns
+    the top (81020 m); without it such a q raises ValueError.
+    """
+    _check_mach(mach)
+    if not (isinstance(q_pa, int | float | np.floating) and math.isfinite(q_pa) and q_pa > 0):
+        raise ValueError(f"q_pa: must be a finite number > 0, got {q_pa!r}")
+    p = float(q_pa) / (0.5 * GAMMA_AIR * mach * mach)
+    if p > _P_AT_H_MIN or p < _P_AT_H_MAX:
+        if not clamp:
+            raise ValueError(
+                f"q_pa: {q_pa:g} Pa at Mach {mach:g} needs static pressure {p:g} Pa, outside the standard atmosphere "
+                f"range [{_P_AT_H_MAX:g}, {_P_AT_H_MIN:g}] Pa"
+            )
+        return H_MIN_M if p > _P_AT_H_MIN else H_MAX_M
+    return float(Atmosphere.from_pressure(p).h[0])

@@ -1,0 +1,567 @@
+"""Aeroelastic coupling of a discrete-time aerodynamic ROM with modal structural dynamics; flutter search.
+
+Structure (mass-normalized modes, M = I): xi'' + G xi' + K xi = q F, K = diag(omega^2), G = diag(2 zeta omega),
+q = 0.5 rho V^2 (Pa), F = f (generalized force per unit q). The aerodynamic model is a discrete state
+space in nondimensional time t* = t V / c_ref with step dt_star (x(n+1) = A x + B xi, f = C x + D xi),
+already in real modal coordinates (u = xi).
+
+Two couplings (every result is labelled with the one used):
+
+- ``"tustin"`` (default): the aero model is converted once to continuous time in t* with the bilinear
+  map, Abar = w0 (A - I) P, Bbar = sqrt(2 w0) P B, Cbar = sqrt(2 w0) C P, Dbar = D - C P B with
+  P = (I + A)^-1 and w0 = 2 / dt_star; in physical time dx/dt = (V / c_ref)(Abar x + Bbar xi). The coupled
+  matrix  [[0, I, 0], [-K + q Dbar, -G, q Cbar], [(V/c) Bbar, 0, (V/c) Abar]]  gives s directly, and a
+  sweep only rescales blocks. Second-order accurate in dt_star (frequency warping ~ (k dt_star)^2 / 12).
+- ``"zoh"`` (baseline): the structure is discretized exactly (zero-order hold, one augmented ``expm``)
+  at dt = dt_star c_ref / V and coupled in discrete time with the ROM (feedthrough D included); the
+  eigenvalues map back by s = ln(z) / dt after discarding z ~ 0. The held force lags by half a step,
+  so the flutter speed converges to the Tustin one at first order in dt_star.
+
+Damping conventions: zeta = -Re(s) / |s| (positive = stable) and g = 2 Re(s) / |s| = -2 zeta
+(positive = unstable, as on NASTRAN-style V-g plots). Frequency omega = Im(s) (rad/s).
+
+Three sweeps at fixed Mach (each result labelled): ``"constant-density"`` (V swept at rho_ref),
+``"constant-speed"`` (V = M a_ref, density swept, i.e. only q changes; the paper's eq. 14, with the
+paper's "flutter speed" sqrt(2 q_f / rho_ref)), ``"matched"`` (altitude swept with V = M a(h)).
+Structural branches are tracked from their in-vacuo poles at q = 0 (Hungarian assignment on
+(1 - MAC of the structural eigenvector part, normalized [xi; xi'/omega]) + weighted eigenvalue distance,
+with local step halving when ambiguous), so aerodynamic-lag roots are never reported as flutter.
+The first zero crossing of Re(s) on a structural branch is refined with ``scipy.optimize.brentq``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+from scipy.optimize import brentq, linear_sum_assignment
+
+from romams_core.atmosphere import altitude_for_dynamic_pressure, isa
+
+SWEEPS = ("constant-density", "constant-speed", "matched")
+COUPLINGS = ("tustin", "zoh")
+DEFAULT_ALTITUDE_REF_M = 10_000.0
+
+
+@dataclass
+class FlutterResult:
+    """Flutter point and V-g / V-omega data of one Mach number (SI units, rad/s).
+
+    ``v`` is the sweep's speed axis: true speed for constant-density and matched sweeps, the
+    equivalent speed sqrt(2 q / rho_ref) for the constant-speed sweep (the paper's convention).
+    ``g`` = 2 Re(s)/|s| (positive = unstable), ``zeta`` = -Re(s)/|s| (positive = stable), per structural
+    branch [nv, k]; ``omega`` = Im(s) (rad/s). Scalars are None when no flutter was found.
+    """
+
+    mach: float
+    sweep: str
+    coupling: str
+    flutter_found: bool
+    v_flutter_m_s: float | None
+    omega_flutter_rad_s: float | None
+    q_flutter_pa: float | None
+    rho_flutter: float | None
+    altitude_m: float | None
+    k_flutter: float | None  # omega_f * (c_ref / 2) / V_true: reduced frequency on the root semichord
+    v_true_m_s: float | None  # physical speed at the flutter point
+    flutter_mode: int | None  # 1-based index of the structural mode the flutter branch starts from
+    sdoff: bool
+    energy_share: float | None  # largest modal share of the flutter eigenvector ([xi; xi'/omega] norm)
+    frequency_separation: float | None  # min relative frequency gap to another structural branch (info)
+    single_mode_unstable: bool  # the flutter mode alone is unstable at q <= sdoff_q_factor q_f (checked if share high)
+    message: str
+    rho_ref: float
+    a_ref: float
+    c_ref: float
+    dt_star: float
+    v: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [nv] m/s
+    q: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [nv] Pa
+    rho: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [nv] kg/m^3
+    altitude: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [nv] m (NaN unless matched)
+    g: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # [nv, k]
+    zeta: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # [nv, k]
+    omega: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # [nv, k] rad/s
+    modal_share: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [k] shares of the flutter vector
+
+
+# ----------------------------------------------------------------------------------------------
+# input checks and model preparation
+# ----------------------------------------------------------------------------------------------
+
+
+def _finite_positive(name: str, value: Any) -> float:
+    """Return ``value`` as float or raise ValueError naming ``name`` unless finite and > 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be a number, got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name}: must be finite and > 0, got {value!r}")
+    return v
+
+
+def _aero_matrices(aero: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+    """Validated (A, B, C, D, dt_star) of a discrete aero model with k inputs and k outputs."""
+    try:
+        a, b, c, d = (np.asarray(getattr(aero, n), dtype=float) for n in ("A", "B", "C", "D"))
+        dt_star = aero.dt_star
+    except AttributeError as exc:
+        raise ValueError(f"aero: needs attributes A, B, C, D, dt_star ({exc})") from None
+    dt_star = _finite_positive("aero.dt_star", dt_star)
+    na = a.shape[0] if a.ndim == 2 else -1
+    if a.ndim != 2 or a.shape != (na, na):
+        raise ValueError(f"aero.A: must be square, got shape {a.shape}")
+    if b.shape != (na, k):
+        raise ValueError(f"aero.B: must have shape ({na}, {k}) for {k} structural modes, got {b.shape}")
+    if c.shape != (k, na):
+        raise ValueError(f"aero.C: must have shape ({k}, {na}) for {k} structural modes, got {c.shape}")
+    if d.shape != (k, k):
+        raise ValueError(f"aero.D: must have shape ({k}, {k}), got {d.shape}")
+    for n, m in (("A", a), ("B", b), ("C", c), ("D", d)):
+        if not np.all(np.isfinite(m)):
+            raise ValueError(f"aero.{n}: contains non-finite values")
+    if na:
+        rad = float(np.max(np.abs(np.linalg.eigvals(a))))
+        if rad >= 1.0:
+            raise ValueError(f"aero.A: unstable aerodynamic model (spectral radius {rad:.6f} >= 1)")
+    return a, b, c, d, dt_star
+
+
+def tustin_to_continuous(
+    a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, dt_star: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Bilinear (Tustin) map of a discrete model in t* (step dt_star) to continuous time in t* (balanced form)."""
+    na = a.shape[0]
+    if na == 0:
+        return a.copy(), b.copy(), c.copy(), d.copy()
+    w0 = 2.0 / dt_star
+    eye = np.eye(na)
+    lu = scipy.linalg.lu_factor(eye + a)
+    if np.min(np.abs(np.diag(lu[0]))) < 1e-12:
+        raise ValueError("aero.A: has a pole at z = -1; the Tustin coupling cannot convert it")
+    pb = scipy.linalg.lu_solve(lu, b)
+    # C P = (P^T C^T)^T
+    cp = scipy.linalg.lu_solve(lu, c.T, trans=1).T
+    abar = w0 * (a - eye) @ scipy.linalg.lu_solve(lu, eye)
+    s = math.sqrt(2.0 * w0)
+    return abar, s * pb, s * cp, d - c @ pb
+
+
+@functools.lru_cache(maxsize=64)
+def _reference_state(altitude_m: float) -> tuple[float, float]:
+    """(rho kg/m^3, a m/s) of the ISA at ``altitude_m`` (m), cached."""
+    st = isa(altitude_m)
+    return float(st.rho), float(st.a)
+
+
+@dataclass
+class _Model:
+    """Prepared coupling data (internal)."""
+
+    k: int
+    na: int
+    omega: np.ndarray
+    zeta: np.ndarray
+    c_ref: float
+    dt_star: float
+    coupling: str
+    a: np.ndarray  # aero matrices in the form the coupling uses (CT for tustin, DT for zoh)
+    b: np.ndarray
+    c: np.ndarray
+    d: np.ndarray
+
+
+def _eig_batch(m: _Model, v: np.ndarray, q: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, Any, np.ndarray]:
+    """Eigenvalues s [n, nt] (rad/s), structural eigenvector parts [n, 2k, nt] and alias period (rad/s) [n]."""
+    k, na = m.k, m.na
+    n2 = 2 * k
+    nv = v.size
+    kk = np.diag(m.omega**2)
+    gg = np.diag(2.0 * m.zeta * m.omega)
+    vc = (v / m.c_ref)[:, None, None]
+    qq = q[:, None, None]
+    if m.coupling == "tustin":
+        n = n2 + na
+        ac = np.zeros((nv, n, n))
+        ac[:, :k, k:n2] = np.eye(k)
+        ac[:, k:n2, :k] = -kk + qq * m.d
+        ac[:, k:n2, k:n2] = -gg
+        ac[:, k:n2, n2:] = qq * m.c
+        ac[:, n2:, :k] = vc * m.b
+        ac[:, n2:, n2:] = vc * m.a
+        if vectors:
+            lam, vec = np.linalg.eig(ac)
+            xs = vec[:, :n2, :]
+        else:
+            lam, xs = np.linalg.eigvals(ac), None
+        return lam.astype(complex), xs, np.full(nv, np.inf)
+    # zero-order hold: exact structure at dt, discrete coupling
+    dt = m.dt_star * m.c_ref / v
+    aug = np.zeros((nv, n2 + k, n2 + k))
+    aug[:, :k, k:n2] = np.eye(k)
+    aug[:, k:n2, :k] = -kk
+    aug[:, k:n2, k:n2] = -gg
+    aug[:, k:n2, n2:] = np.eye(k)
+    aug *= dt[:, None, None]
+    e = scipy.linalg.expm(aug)
+    phi, gam = e[:, :n2, :n2], e[:, :n2, n2:]
+    n = n2 + na
+    ad = np.zeros((nv, n, n))
+    ad[:, :n2, :n2] = phi
+    ad[:, :n2, :k] += qq * (gam @ m.d)
+    ad[:, :n2, n2:] = qq * (gam @ m.c)
+    ad[:, n2:, :k] = m.b
+    ad[:, n2:, n2:] = m.a
+    if vectors:
+        z, vec = np.linalg.eig(ad)
+        xs = vec[:, :n2, :]
+    else:
+        z, xs = np.linalg.eigvals(ad), None
+    z = z.astype(complex)
+    small = np.abs(z) < 1e-10
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.log(np.where(small, 1.0, z)) / dt[:, None]
+    lam[small] = np.nan
+    return lam, xs, 2.0 * np.pi / dt
+
+
+# ----------------------------------------------------------------------------------------------
+# branch tracking
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Branches:
+    """Tracked state of the k structural branches (internal)."""
+
+    lam: np.ndarray  # [k] complex s
+    vec: np.ndarray  # [2k, k] normalized structural vectors [xi; xi'/omega] (columns)
+
+
+def _initial_branches(omega: np.ndarray, zeta: np.ndarray) -> _Branches:
+    """In-vacuo structural poles (q = 0) and their structural eigenvectors."""
+    k = omega.size
+    lam = omega * (-zeta + 1j * np.sqrt(np.maximum(1.0 - zeta**2, 0.0)))
+    a = np.concatenate([np.eye(k), np.diag(lam / omega)], axis=0).astype(complex)
+    return _Branches(lam, a / np.linalg.norm(a, axis=0))
+
+
+def _assign(
+    prev: _Branches, lam_c: np.ndarray, a_c: np.ndarray, period: float, weight: float
+) -> tuple[_Branches, float, float]:
+    """One tracking step: Hungarian assignment of candidates (s, normalized structural vectors) to branches.
+
+    Returns the new branch state, the smallest assigned MAC and the largest relative eigenvalue jump.
+    """
+    k = prev.lam.size
+    if math.isfinite(period):
+        m = np.round((prev.lam.imag[:, None] - lam_c.imag[None, :]) / period)
+        s = lam_c[None, :] + (1j * period) * m
+    else:
+        s = np.repeat(lam_c[None, :], k, axis=0)
+    mac = np.abs(prev.vec.conj().T @ a_c) ** 2
+    dist = np.abs(s - prev.lam[:, None]) / np.abs(prev.lam)[:, None]
+    cost = (1.0 - mac) + weight * dist
+    cost[~np.isfinite(cost)] = 1e6
+    rows, cols = linear_sum_assignment(cost)
+    cols = cols[np.argsort(rows)]
+    idx = np.arange(k)
+    return _Branches(s[idx, cols], a_c[:, cols]), float(mac[idx, cols].min()), float(dist[idx, cols].max())
+
+
+class _Tracker:
+    """Continuation of the structural branches along a scalar sweep parameter p (internal)."""
+
+    def __init__(self, model: _Model, cond: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], weight: float):
+        self.m = model
+        self.cond = cond
+        self.weight = weight
+
+    def eig(self, p: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, Any, np.ndarray]:
+        """Eigenvalues s, normalized structural vectors [n, 2k, nt] (None without vectors), alias periods."""
+        v, rho = self.cond(p)
+        lam, xs, per = _eig_batch(self.m, v, 0.5 * rho * v**2, vectors)
+        if xs is not None:
+            k = self.m.k
+            xs = np.concatenate([xs[:, :k], xs[:, k:] / self.m.omega[None, :, None]], axis=1)
+            nrm = np.linalg.norm(xs, axis=1, keepdims=True)
+            xs = xs / np.where(nrm > 0, nrm, 1.0)
+        return lam, xs, per
+
+    def step(self, prev: _Branches, p0: float, p1: float, lam1: np.ndarray, xs1: np.ndarray, per1: float,
+             depth: int = 0) -> _Branches:
+        """Track from p0 (state prev) to p1 (given eigen-data), halving the step when ambiguous."""
+        new, mac_min, jump = _assign(prev, lam1, xs1, per1, self.weight)
+        if (mac_min < 0.8 or jump > 0.5) and depth < 6:
+            pm = 0.5 * (p0 + p1)
+            lam_m, xs_m, per_m = self.eig(np.array([pm]))
+            mid = self.step(prev, p0, pm, lam_m[0], xs_m[0], float(per_m[0]), depth + 1)
+            return self.step(mid, pm, p1, lam1, xs1, per1, depth + 1)
+        return new
+
+
+def _single_mode_unstable(
+    m: _Model, cond: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], j: int, p_start: float, p_end: float,
+    weight: float, n: int = 8,
+) -> bool:
+    """True when structural mode j alone (diagonal aero term only) has an unstable root at some p <= p_end."""
+    sub = _Model(1, m.na, m.omega[[j]], m.zeta[[j]], m.c_ref, m.dt_star, m.coupling, m.a, m.b[:, [j]],
+                 m.c[[j], :], m.d[[j]][:, [j]])
+    tr = _Tracker(sub, cond, weight)
+    grid = np.linspace(p_start, p_end, n + 1)[1:]
+    lam, xs, per = tr.eig(grid)
+    state = _initial_branches(sub.omega, sub.zeta)
+    p_prev = p_start
+    for i in range(grid.size):
+        state = tr.step(state, p_prev, grid[i], lam[i], xs[i], float(per[i]))
+        if state.lam[0].real > 1e-9 * abs(state.lam[0]):
+            return True
+        p_prev = grid[i]
+    return False
+
+
+# ----------------------------------------------------------------------------------------------
+# flutter analysis
+# ----------------------------------------------------------------------------------------------
+
+
+def _empty(mach: float, sweep: str, coupling: str, message: str, **kw: Any) -> dict[str, Any]:
+    """Common keyword arguments of a FlutterResult without a flutter point."""
+    base = dict(
+        mach=mach, sweep=sweep, coupling=coupling, flutter_found=False, v_flutter_m_s=None,
+        omega_flutter_rad_s=None, q_flutter_pa=None, rho_flutter=None, altitude_m=None, k_flutter=None,
+        v_true_m_s=None, flutter_mode=None, sdoff=False, energy_share=None, frequency_separation=None,
+        single_mode_unstable=False,
+        message=message,
+    )
+    base.update(kw)
+    return base
+
+
+def flutter_analysis(
+    omega: np.ndarray,
+    aero: Any,
+    c_ref: float,
+    mach: float,
+    *,
+    sweep: str = "constant-speed",
+    coupling: str = "tustin",
+    zeta: np.ndarray | float | None = None,
+    altitude_ref_m: float = DEFAULT_ALTITUDE_REF_M,
+    rho_ref: float | None = None,
+    a_ref: float | None = None,
+    v_max: float | None = None,
+    q_max: float | None = None,
+    altitude_range_m: tuple[float, float] = (0.0, 20_000.0),
+    n_points: int = 24,
+    sdoff_share: float = 0.9,
+    sdoff_q_factor: float = 1.1,
+    track_weight: float = 0.5,
+    rtol: float = 1e-5,
+) -> FlutterResult:
+    """Flutter search at one Mach number for structure ``omega`` [k] (rad/s) and modal aero ROM ``aero``.
+
+    ``aero`` has A, B, C, D, dt_star (discrete, t* = t V / c_ref, inputs xi, outputs f = F / q);
+    ``c_ref`` in m. Reference state: rho_ref, a_ref default to ISA at ``altitude_ref_m`` (10 km).
+    Ranges: ``v_max`` (m/s, constant-density; default 3 M a_ref), ``q_max`` (Pa, constant-speed; default
+    4 x 0.5 rho_ref (M a_ref)^2), ``altitude_range_m`` (matched). ``n_points`` coarse sweep points,
+    refined with brentq to ``rtol`` relative. SDOFF when the flutter vector's largest modal share is
+    >= ``sdoff_share`` AND the flutter branch's mode alone (its own diagonal aero term, no coupling with
+    the other modes) is already unstable at q <= ``sdoff_q_factor`` q_f. Returns a FlutterResult (no flutter in
+    range is a result with flutter_found False).
+    """
+    if sweep not in SWEEPS:
+        raise ValueError(f"sweep: must be one of {SWEEPS}, got {sweep!r}")
+    if coupling not in COUPLINGS:
+        raise ValueError(f"coupling: must be one of {COUPLINGS}, got {coupling!r}")
+    om = np.atleast_1d(np.asarray(omega, dtype=float))
+    if om.ndim != 1 or om.size == 0 or not np.all(np.isfinite(om)) or np.any(om <= 0):
+        raise ValueError("omega: must be a non-empty 1-D array of finite frequencies > 0 (rad/s)")
+    k = om.size
+    if zeta is None:
+        zt = np.zeros(k)
+    else:
+        zt = np.broadcast_to(np.asarray(zeta, dtype=float), (k,)).copy() if np.ndim(zeta) == 0 else np.asarray(
+            zeta, dtype=float)
+        if zt.shape != (k,) or not np.all(np.isfinite(zt)) or np.any(zt < 0) or np.any(zt >= 1):
+            raise ValueError(f"zeta: must be a scalar or [{k}] array of damping ratios in [0, 1)")
+    c_ref = _finite_positive("c_ref", c_ref)
+    if not (isinstance(mach, int | float | np.floating) and math.isfinite(mach) and mach >= 0):
+        raise ValueError(f"mach: must be a finite number >= 0, got {mach!r}")
+    mach = float(mach)
+    if sweep != "constant-density" and mach <= 0:
+        raise ValueError(f"mach: must be > 0 for the {sweep} sweep, got {mach!r}")
+    if not (isinstance(n_points, int | np.integer) and 4 <= n_points <= 2000):
+        raise ValueError(f"n_points: must be an integer in [4, 2000], got {n_points!r}")
+    if not (0.0 < sdoff_share <= 1.0):
+        raise ValueError(f"sdoff_share: must be in (0, 1], got {sdoff_share!r}")
+    if not (math.isfinite(sdoff_q_factor) and sdoff_q_factor >= 1.0):
+        raise ValueError(f"sdoff_q_factor: must be >= 1, got {sdoff_q_factor!r}")
+    a, b, c, d, dt_star = _aero_matrices(aero, k)
+    if coupling == "tustin":
+        a, b, c, d = tustin_to_continuous(a, b, c, d, dt_star)
+    model = _Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d)
+
+    if rho_ref is None or a_ref is None:
+        ref_rho, ref_a = _reference_state(float(altitude_ref_m))
+    rho_ref = ref_rho if rho_ref is None else _finite_positive("rho_ref", rho_ref)
+    a_ref = ref_a if a_ref is None else _finite_positive("a_ref", a_ref)
+
+    # sweep parameter p: V (constant-density), q (constant-speed), or [-1, 0) bridge q-ramp at the
+    # top altitude followed by p = h_top - h (matched); p = p_start is q = 0 where the branches start.
+    if sweep == "constant-density":
+        if v_max is None:
+            if mach <= 0:
+                raise ValueError("v_max: required for a constant-density sweep with mach = 0")
+            v_max = 3.0 * mach * a_ref
+        p_end = _finite_positive("v_max", v_max)
+
+        def cond(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return np.asarray(p, float), np.full(np.shape(p), rho_ref)
+
+        p_start, grid = 0.0, np.linspace(p_end / n_points, p_end, n_points)
+    elif sweep == "constant-speed":
+        v0 = mach * a_ref
+        p_end = 4.0 * 0.5 * rho_ref * v0**2 if q_max is None else _finite_positive("q_max", q_max)
+
+        def cond(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            p = np.asarray(p, float)
+            return np.full(p.shape, v0), 2.0 * p / v0**2
+
+        p_start, grid = 0.0, np.linspace(p_end / n_points, p_end, n_points)
+    else:
+        h_lo, h_hi = (float(x) for x in altitude_range_m)
+        if not (math.isfinite(h_lo) and math.isfinite(h_hi) and h_lo < h_hi):
+            raise ValueError(f"altitude_range_m: must be (low, high) with low < high, got {altitude_range_m!r}")
+        top = isa(h_hi)
+        isa(h_lo)  # range check
+        v_top, rho_top = mach * float(top.a), float(top.rho)
+
+        def cond(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            p = np.asarray(p, float)
+            st = isa(h_hi - np.maximum(p, 0.0))
+            v = np.where(p < 0, v_top, mach * st.a)
+            rho = np.where(p < 0, rho_top * (1.0 + np.minimum(p, 0.0)), st.rho)
+            return v, rho
+
+        p_start = -1.0
+        grid = np.concatenate([np.linspace(-0.75, -0.25, 3), np.linspace(0.0, h_hi - h_lo, n_points)])
+
+    tracker = _Tracker(model, cond, track_weight)
+    lam_g, xs_g, per_g = tracker.eig(grid)
+    state = _initial_branches(om, zt)
+    lam_path = np.empty((grid.size, k), complex)
+    states: list[_Branches] = []
+    p_prev = p_start
+    for i in range(grid.size):
+        state = tracker.step(state, p_prev, grid[i], lam_g[i], xs_g[i], float(per_g[i]))
+        lam_path[i] = state.lam
+        states.append(state)
+        p_prev = grid[i]
+
+    # first zero crossing of Re(s) on any structural branch
+    g_path = 2.0 * lam_path.real / np.abs(lam_path)
+    unstable = g_path > 1e-9
+    first = np.where(unstable.any(axis=0), unstable.argmax(axis=0), grid.size)
+    i_cross = int(first.min())
+
+    v_g, rho_g = cond(grid)
+    q_g = 0.5 * rho_g * v_g**2
+    keep = grid >= 0.0 if sweep == "matched" else np.ones(grid.size, bool)
+    alt_g = np.where(keep, h_hi - grid, np.nan) if sweep == "matched" else np.full(grid.size, np.nan)
+    v_axis = np.sqrt(2.0 * q_g / rho_ref) if sweep == "constant-speed" else v_g
+    common = dict(
+        rho_ref=rho_ref, a_ref=a_ref, c_ref=c_ref, dt_star=dt_star,
+        v=v_axis[keep], q=q_g[keep], rho=rho_g[keep], altitude=alt_g[keep],
+        g=g_path[keep], zeta=-0.5 * g_path[keep], omega=lam_path.imag[keep], modal_share=np.zeros(k),
+    )
+    if i_cross >= grid.size:
+        rng = {
+            "constant-density": f"V = {grid[-1]:.6g} m/s",
+            "constant-speed": f"q = {grid[-1]:.6g} Pa",
+            "matched": f"altitude down to {h_lo:.6g} m" if sweep == "matched" else "",
+        }[sweep]
+        return FlutterResult(**_empty(mach, sweep, coupling, f"no flutter up to {rng}", **common))
+
+    branch = int(first.argmin())
+    if i_cross == 0:
+        lo_p = p_start + 1e-6 * (grid[0] - p_start)
+        lam_lo, xs_lo, per_lo = tracker.eig(np.array([lo_p]))
+        lo_state = tracker.step(_initial_branches(om, zt), p_start, lo_p, lam_lo[0], xs_lo[0], float(per_lo[0]))
+    else:
+        lo_p, lo_state = grid[i_cross - 1], states[i_cross - 1]
+    hi_p, hi_state = grid[i_cross], states[i_cross]
+    lam_a, lam_b = lo_state.lam[branch], hi_state.lam[branch]
+
+    def re_at(p: float) -> float:
+        """Re(s) of the flutter branch at p, matched to the bracket ends' linear prediction."""
+        lam, _, per = tracker.eig(np.array([p]), vectors=False)
+        lam = lam[0]
+        t = (p - lo_p) / (hi_p - lo_p)
+        pred = lam_a + t * (lam_b - lam_a)
+        if math.isfinite(per[0]):
+            lam = lam + 1j * per[0] * np.round((pred.imag - lam.imag) / per[0])
+        j = int(np.nanargmin(np.abs(lam - pred)))
+        return float(lam[j].real)
+
+    message = ""
+    if re_at(lo_p) > 0:
+        p_f = lo_p
+        message = "structural branch already unstable at the start of the sweep; "
+    else:
+        scale = max(abs(hi_p), abs(lo_p), 1e-300)
+        p_f = brentq(re_at, lo_p, hi_p, xtol=rtol * scale * 1e-3, rtol=max(rtol, 1e-14))
+    lam_f, xs_f, per_f = tracker.eig(np.array([p_f]))
+    st_f = tracker.step(lo_state, lo_p, p_f, lam_f[0], xs_f[0], float(per_f[0]))
+    lam_fl = complex(st_f.lam[branch])
+    # modal shares of the flutter eigenvector, [xi; xi'/omega] normalization
+    vec = st_f.vec[:, branch]
+    share = np.abs(vec[:k]) ** 2 + np.abs(vec[k:]) ** 2
+    share = share / share.sum()
+    energy_share = float(share.max())
+    # frequency separation from the other structural branches up to the flutter point (reported only)
+    if k > 1:
+        w_path = np.vstack([lam_path.imag[:i_cross], st_f.lam.imag[None, :]])
+        wb = np.abs(w_path[:, branch])
+        others = np.delete(w_path, branch, axis=1)
+        sep = float(np.min(np.abs(others - w_path[:, [branch]]) / np.where(wb > 0, wb, 1.0)[:, None]))
+    else:
+        sep = math.inf
+    v_f, rho_f = (float(x[0]) for x in cond(np.array([p_f])))
+    q_f = 0.5 * rho_f * v_f**2
+    single_unstable = False
+    if energy_share >= sdoff_share:
+        if sweep == "constant-density":
+            p_chk = p_f * math.sqrt(sdoff_q_factor)
+        elif sweep == "constant-speed":
+            p_chk = p_f * sdoff_q_factor
+        else:
+            h_chk = altitude_for_dynamic_pressure(q_f * sdoff_q_factor, mach, clamp=True)
+            p_chk = max(h_hi - h_chk, p_f)
+        single_unstable = _single_mode_unstable(model, cond, branch, p_start, p_chk, track_weight)
+    sdoff = bool(energy_share >= sdoff_share and single_unstable)
+
+    omega_f = abs(lam_fl.imag)
+    alt_f = None
+    if sweep == "matched":
+        alt_f = float(h_hi - max(p_f, 0.0))
+        if p_f < 0:
+            message += f"unstable already at the top altitude {h_hi:.6g} m (flutter altitude above the range); "
+    v_report = math.sqrt(2.0 * q_f / rho_ref) if sweep == "constant-speed" else v_f
+    message += (
+        f"flutter on structural branch {branch + 1} at q = {q_f:.6g} Pa, V = {v_f:.6g} m/s, "
+        f"omega = {omega_f:.6g} rad/s ({sweep}, {coupling})"
+    )
+    common["modal_share"] = share
+    return FlutterResult(
+        mach=mach, sweep=sweep, coupling=coupling, flutter_found=True, v_flutter_m_s=v_report,
+        omega_flutter_rad_s=omega_f, q_flutter_pa=q_f, rho_flutter=rho_f, altitude_m=alt_f,
+        k_flutter=omega_f * 0.5 * c_ref / v_f, v_true_m_s=v_f, flutter_mode=branch + 1, sdoff=sdoff,
+        single_mode_unstable=bool(single_unstable), energy_share=energy_share, frequency_separation=sep,
+        message=message, **common,
+    )
