@@ -185,7 +185,7 @@ class PlateStructure:
         if self.thickness_form not in THICKNESS_FORMS:
             raise ValueError(f"structure.thickness_form: must be one of {THICKNESS_FORMS}, got {self.thickness_form!r}")
         _check_finite("structure.thickness_to_chord", self.thickness_to_chord, 0.0)
-        _check_finite("structure.min_thickness_fraction", self.min_thickness_fraction, 0.0)
+        _check_finite("structure.min_thickness_fraction", self.min_thickness_fraction, 0.0, strict=False)
         _check_finite("structure.thickness_ratio", self.thickness_ratio, 0.0)
         _check_int("structure.fe_n_chord", self.fe_n_chord, 2, 200)
         _check_int("structure.fe_n_span", self.fe_n_span, 2, 400)

@@ -19,7 +19,13 @@ from scipy.sparse.linalg import eigsh
 
 from romams_core.mesh import Planform, StandardMesh, standard_mesh
 from romams_core.structure.beam import beam_element_matrices, rectangle_torsion_constant
-from romams_core.structure.dkt import bernstein_coefficients, bernstein_values, cubic_mass, dkt_stiffness
+from romams_core.structure.dkt import (
+    bernstein_coefficients,
+    bernstein_values,
+    cubic_mass,
+    dkt_stiffness,
+    triangle_geometry,
+)
 from romams_core.structure.plate_mesh import PlateMesh, locate, plate_mesh
 from romams_core.wing import BeamStructure, PlateStructure, WingDefinition
 
@@ -72,7 +78,7 @@ def naca4_thickness_form(xi: np.ndarray) -> np.ndarray:
     """Symmetric NACA 4-digit thickness distribution at chord fractions xi, normalized to a maximum of 1."""
     xi = np.clip(np.asarray(xi, dtype=float), 0.0, 1.0)
     poly = 0.2969 * np.sqrt(xi) - 0.1260 * xi - 0.3516 * xi**2 + 0.2843 * xi**3 - 0.1015 * xi**4
-    return poly / 0.1502  # maximum of the polynomial (at xi = 0.2998) is 0.15015
+    return poly / 0.10002879  # maximum of the polynomial (at xi = 0.29983)
 
 
 def plate_thickness(planform: Planform, s: PlateStructure, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -103,7 +109,7 @@ def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None
     conn = _dofs(tri)
     K = _assemble(conn, ke, n_dof)
     M = _assemble(conn, me, n_dof)
-    area = 0.5 * np.abs(np.cross(exy[:, 1] - exy[:, 0], exy[:, 2] - exy[:, 0]))
+    area, _, _ = triangle_geometry(exy)
     mass = float(np.sum(s.material.density * h * area))
     if beam is not None:
         bn = pm.beam_nodes()
