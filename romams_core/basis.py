@@ -136,6 +136,7 @@ class Basis:
     design_names: list[str] = field(default_factory=list)
     wing_name: str = ""
     energy: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [r] cumulative energy fraction
+    candidates: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # [N, <= max_basis] leading shapes
 
     @property
     def n_nodes(self) -> int:
@@ -206,8 +207,9 @@ def build_basis(
     min_by_m = worst[np.minimum(np.arange(max_basis), rank - 1)]
     energy = np.cumsum(s**2) / np.sum(s**2)
     d = np.zeros((0, 0)) if designs is None else np.atleast_2d(np.asarray(designs, dtype=float))
+    cand = _canonical_sign(u[:, :m_cap].copy())
     return Basis(
-        shapes=_canonical_sign(u[:, :m].copy()),
+        shapes=cand[:, :m].copy(),
         singular_values=s.copy(),
         n_basis=m,
         mac_threshold=thr,
@@ -221,7 +223,19 @@ def build_basis(
         design_names=[str(x) for x in design_names],
         wing_name=str(wing_name),
         energy=energy,
+        candidates=cand,
     )
+
+
+def mac_by_basis_size(candidates: np.ndarray, shapes: np.ndarray) -> np.ndarray:
+    """MAC [M, k] of the fit of shapes [N, k] by the first 1..M orthonormal candidate shapes [N, M]."""
+    v = _as_2d("candidates", candidates)
+    phi = _as_2d("shapes", shapes)
+    if v.shape[0] != phi.shape[0]:
+        raise ValueError(f"shapes: has {phi.shape[0]} nodes, the candidates have {v.shape[0]}")
+    c2 = (v.T @ phi) ** 2
+    norm2 = np.einsum("ij,ij->j", phi, phi)
+    return np.minimum(np.cumsum(c2, axis=0) / np.where(norm2 > 0.0, norm2, 1.0), 1.0)
 
 
 @dataclass

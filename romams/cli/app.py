@@ -3,3 +3,8 @@
 import typer
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="ROM-AMS flutter service and tools.")
+
+
+@app.callback()
+def _root() -> None:
+    """ROM-AMS flutter service and tools (a callback keeps subcommands even when only one is registered)."""
