@@ -553,6 +553,8 @@ def flutter_analysis(
         if p_f < 0:
             message += f"unstable already at the top altitude {h_hi:.6g} m (flutter altitude above the range); "
     v_report = math.sqrt(2.0 * q_f / rho_ref) if sweep == "constant-speed" else v_f
+    if omega_f <= 1e-6 * float(om.max()):
+        message += "zero-frequency crossing (static divergence); "
     message += (
         f"flutter on structural branch {branch + 1} at q = {q_f:.6g} Pa, V = {v_f:.6g} m/s, "
         f"omega = {omega_f:.6g} rad/s ({sweep}, {coupling})"
