@@ -30,6 +30,7 @@ from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from romams_core.mesh import StandardMesh
 from romams_core.structure.mapping import map_to_mesh
+from romams_core.structure.modal import ModalResult
 
 PathLike = str | os.PathLike[str]
 
@@ -385,10 +386,8 @@ def check_coverage(points_xy: np.ndarray, mesh: StandardMesh) -> None:
         )
 
 
-def external_modal_result(modes: ExternalModes, mesh: StandardMesh, smooth: bool = True) -> Any:
+def external_modal_result(modes: ExternalModes, mesh: StandardMesh, smooth: bool = True) -> ModalResult:
     """ModalResult (mass-normalized shapes on the standard mesh, sorted by frequency) of external modes."""
-    from romams_core.structure.modal import ModalResult
-
     planform = mesh.planform
     z = modes.nodes[:, 2]
     if np.ptp(z) > _MAX_Z_SPREAD * max(planform.root_chord, planform.semispan):
