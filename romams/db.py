@@ -115,6 +115,7 @@ class Job(Base):
     wing_id: Mapped[int | None] = mapped_column(ForeignKey("wings.id", ondelete="SET NULL"), nullable=True)
     parent_id: Mapped[str | None] = mapped_column(String(64), nullable=True, index=True)
     deliveries: Mapped[int] = mapped_column(Integer, default=0)
+    stage: Mapped[str | None] = mapped_column(String(20), nullable=True)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
     started_at: Mapped[dt.datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
     finished_at: Mapped[dt.datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
@@ -147,6 +148,20 @@ class ModesUpload(Base):
     source: Mapped[str] = mapped_column(String(40))
     filename: Mapped[str] = mapped_column(String(400), default="")
     summary: Mapped[dict[str, Any]] = mapped_column(JSON)
+    meta: Mapped[dict[str, Any]] = mapped_column(JSON)
+    blob: Mapped[bytes] = mapped_column(LargeBinary)
+    created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
+class Artifact(Base):
+    """An intermediate array result of a job (e.g. one chunk's snapshots), NPZ blob + JSON meta."""
+
+    __tablename__ = "artifacts"
+    __table_args__ = (UniqueConstraint("job_id", "name", name="uq_artifacts_job_name"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    job_id: Mapped[str] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), index=True)
+    name: Mapped[str] = mapped_column(String(100))
     meta: Mapped[dict[str, Any]] = mapped_column(JSON)
     blob: Mapped[bytes] = mapped_column(LargeBinary)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)

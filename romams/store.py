@@ -29,7 +29,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, sessionmaker
 
 from romams import serialize
-from romams.db import ACTIVE_STATUSES, BasisRow, Evaluation, Job, ModesUpload, RomRow, Wing, utcnow
+from romams.db import ACTIVE_STATUSES, Artifact, BasisRow, Evaluation, Job, ModesUpload, RomRow, Wing, utcnow
 from romams.settings import Settings, get_settings
 
 _ENGINES: dict[str, Engine] = {}
@@ -104,7 +104,7 @@ def migrations_dir() -> Path:
     """Directory of the Alembic scripts (works from a checkout and from an installed package)."""
     import migrations
 
-    return Path(migrations.__file__).resolve().parent
+    return Path(next(iter(migrations.__path__))).resolve()
 
 
 def alembic_config(url: str) -> Any:
@@ -447,13 +447,14 @@ class Store:
 
     # ---- jobs --------------------------------------------------------------------------------
     def create_job(self, kind: str, params: Mapping[str, Any], *, wing_id: int | None = None, key: str | None = None,
-                   parent_id: str | None = None, job_id: str | None = None, message: str = "queued") -> str:
+                   parent_id: str | None = None, job_id: str | None = None, message: str = "queued",
+                   stage: str | None = None) -> str:
         """Insert a queued job row (committed before any message is sent); returns its id."""
         jid = job_id or str(uuid.uuid4())
         with self.session() as s:
             s.add(Job(id=jid, kind=kind, status="queued", progress=0.0, message=message,
                       params=serialize.to_jsonable(dict(params)), wing_id=wing_id, key=key, parent_id=parent_id,
-                      deliveries=0, created_at=utcnow(), updated_at=utcnow()))
+                      deliveries=0, stage=stage, created_at=utcnow(), updated_at=utcnow()))
         return jid
 
     def get_job(self, job_id: str) -> dict[str, Any] | None:
@@ -545,6 +546,48 @@ class Store:
         with self.session() as s:
             rows = s.scalars(select(Job).where(Job.parent_id == parent_id).order_by(Job.created_at, Job.id))
             return [job_dict(j) for j in rows]
+
+    def claim_stage(self, job_id: str, expect: str | None, new: str) -> bool:
+        """Atomically move a job's stage from ``expect`` to ``new``; True for exactly one caller."""
+        q = update(Job).where(Job.id == job_id, Job.stage.is_(None) if expect is None else Job.stage == expect)
+        with self.session() as s:
+            return s.execute(q.values(stage=new, updated_at=utcnow())).rowcount > 0
+
+    def heartbeat(self, job_id: str) -> bool:
+        """Touch updated_at of a running job (proof of life for the stale-job sweeper)."""
+        return self.update_job(job_id, expect=("running",))
+
+    def stale_jobs(self, older_than_s: float) -> list[dict[str, Any]]:
+        """Running jobs whose row has not been touched for ``older_than_s`` seconds (their worker died)."""
+        import datetime as _dt
+
+        cutoff = utcnow() - _dt.timedelta(seconds=float(older_than_s))
+        if self.engine.dialect.name == "sqlite":
+            cutoff = cutoff.replace(tzinfo=None)
+        with self.session() as s:
+            return [job_dict(j) for j in s.scalars(select(Job).where(Job.status == "running", Job.updated_at < cutoff))]
+
+    def requeue(self, job_id: str, message: str) -> bool:
+        """running -> queued (guarded), before a stale job's message is sent again."""
+        return self.update_job(job_id, expect=("running",), status="queued", message=message)
+
+    def save_artifact(self, job_id: str, name: str, obj: Any) -> None:
+        """Store (or replace) a named intermediate result of a job."""
+        meta, blob = serialize.dumps(obj)
+        with self.session() as s:
+            old = s.scalar(select(Artifact).where(Artifact.job_id == job_id, Artifact.name == name))
+            if old is not None:
+                s.delete(old)
+                s.flush()
+            s.add(Artifact(job_id=job_id, name=name, meta=meta, blob=blob))
+
+    def load_artifact(self, job_id: str, name: str) -> Any:
+        """A named intermediate result of a job (KeyError if absent)."""
+        with self.session() as s:
+            row = s.scalar(select(Artifact).where(Artifact.job_id == job_id, Artifact.name == name))
+            if row is None:
+                raise KeyError(f"artifact {name!r} of job {job_id} not found")
+            return serialize.loads(row.meta, row.blob)
 
     def find_active_job(self, key: str) -> dict[str, Any] | None:
         """Newest queued or running job with this dedupe key, or None."""

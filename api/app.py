@@ -1,0 +1,78 @@
+"""FastAPI application of the ROM-AMS flutter service (``uvicorn api.app:app``)."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import AsyncIterator
+from pathlib import Path
+from typing import Any
+
+from fastapi import FastAPI
+from fastapi.responses import RedirectResponse
+from fastapi.staticfiles import StaticFiles
+
+from api import problems
+from api.deps import Service
+from romams import __version__
+from romams.jobs import StaleSweeper
+from romams.settings import Settings, get_settings
+from romams.store import open_store
+
+STATIC_DIR = Path(__file__).resolve().parent / "static"
+
+
+def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper: bool = True) -> FastAPI:
+    """Build the app for ``settings`` (default: the environment); ``celery`` overrides the task sender."""
+    settings = settings or get_settings()
+    if celery is None:
+        from worker.celery_app import make_app
+
+        celery = make_app(settings)
+    store = open_store(settings)
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        sw = StaleSweeper(store, celery, settings.job_stale_s).start() if sweeper else None
+        try:
+            yield
+        finally:
+            if sw is not None:
+                sw.stop()
+
+    app = FastAPI(title="romams", version=__version__, lifespan=lifespan,
+                  description="ROM-AMS flutter service: wings, PCA bases, aerodynamic ROM training, flutter "
+                              "evaluation of arbitrary structures. Errors are RFC 9457 problem+json.")
+    app.state.service = Service(settings=settings, store=store, celery=celery)
+    problems.install(app)
+
+    from api.dashboard import router as dashboard_router
+    from api.routes import flutter, jobs, modes, wings
+
+    for r in (wings.router, jobs.router, flutter.router, modes.router):
+        app.include_router(r, prefix="/api/v1")
+    app.include_router(dashboard_router)
+    app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+
+    @app.get("/", include_in_schema=False)
+    def root() -> RedirectResponse:
+        return RedirectResponse("/dashboard")
+
+    @app.get("/api/v1/health", tags=["meta"])
+    def health() -> dict[str, Any]:
+        """Liveness + database check."""
+        from sqlalchemy import text
+
+        with store.engine.connect() as conn:
+            conn.execute(text("SELECT 1"))
+        return {"status": "ok", "version": __version__, "database": store.engine.dialect.name}
+
+    return app
+
+
+def __getattr__(name: str) -> Any:
+    """``api.app:app`` is built on first access (so importing the module has no side effects)."""
+    if name == "app":
+        application = create_app()
+        globals()["app"] = application
+        return application
+    raise AttributeError(name)

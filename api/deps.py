@@ -1,0 +1,52 @@
+"""Shared dependencies of the API routes: the service context (settings, store, Celery) and API-key auth."""
+
+from __future__ import annotations
+
+import hmac
+from dataclasses import dataclass
+from typing import Any
+
+from fastapi import Request
+
+from api.problems import Problem
+from romams.settings import Settings
+from romams.store import Store
+
+
+@dataclass
+class Service:
+    """What a request handler needs: settings, the store and the Celery app used to send tasks."""
+
+    settings: Settings
+    store: Store
+    celery: Any
+
+
+def service(request: Request) -> Service:
+    """The app's service context."""
+    return request.app.state.service
+
+
+def require_key(request: Request) -> None:
+    """Mutating endpoints: ``Authorization: Bearer <key>`` must match a configured key (if any are)."""
+    keys = request.app.state.service.settings.api_keys
+    if not keys:
+        return
+    auth = request.headers.get("authorization", "")
+    scheme, _, token = auth.partition(" ")
+    if scheme.lower() != "bearer" or not token:
+        raise Problem(401, "authorization: a Bearer API key is required for this endpoint", "authorization",
+                      headers={"WWW-Authenticate": "Bearer"})
+    if not any(hmac.compare_digest(token.strip().encode(), k.encode()) for k in keys):
+        raise Problem(403, "authorization: the API key is not valid", "authorization")
+
+
+def wing_or_404(svc: Service, wing_ref: str) -> tuple[int, Any]:
+    """(id, WingDefinition) by id or name, else 404 naming the wing."""
+    try:
+        found = svc.store.find_wing(wing_ref)
+    except ValueError as exc:  # a stored definition the current code cannot read
+        raise Problem(409, f"wing: stored definition of {wing_ref!r} cannot be loaded: {exc}", "wing") from exc
+    if found is None:
+        raise Problem(404, f"wing: no wing with id or name {wing_ref!r}", "wing")
+    return found

@@ -1,0 +1,95 @@
+"""RFC 9457 problem details: every error of the API is ``application/problem+json``.
+
+Validation errors name the offending field (``field``: a dotted path into the request) and the
+reason; the core's ``ValueError`` messages already start with the field name.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+PROBLEM_JSON = "application/problem+json"
+log = logging.getLogger("romams.api")
+
+TITLES = {400: "Bad Request", 401: "Unauthorized", 403: "Forbidden", 404: "Not Found", 405: "Method Not Allowed",
+          409: "Conflict", 413: "Content Too Large", 415: "Unsupported Media Type", 422: "Unprocessable Content",
+          500: "Internal Server Error", 501: "Not Implemented", 503: "Service Unavailable", 504: "Gateway Timeout"}
+
+
+class Problem(Exception):
+    """An HTTP error with a problem+json body (``field`` names the offending input)."""
+
+    def __init__(self, status: int, detail: str, field: str | None = None, *, title: str | None = None,
+                 extra: dict[str, Any] | None = None, headers: dict[str, str] | None = None) -> None:
+        super().__init__(detail)
+        self.status, self.detail, self.field = status, detail, field
+        self.title = title or TITLES.get(status, "Error")
+        self.extra = extra or {}
+        self.headers = headers
+
+
+def invalid(field: str, reason: str) -> Problem:
+    """422 for an invalid request field."""
+    return Problem(422, f"{field}: {reason}", field)
+
+
+def from_value_error(exc: ValueError, prefix: str = "") -> Problem:
+    """422 from a core ValueError ('<field>: <reason>'), the field prefixed with the request path."""
+    text = str(exc)
+    head, sep, _ = text.partition(":")
+    field = head.strip() if sep and " " not in head.strip() else None
+    if field and prefix:
+        field = f"{prefix}.{field}" if not field.startswith(prefix) else field
+    return Problem(422, f"{prefix + ': ' if prefix and not field else ''}{text}", field or prefix or None)
+
+
+def problem_response(status: int, detail: str, *, title: str | None = None, field: str | None = None,
+                     instance: str | None = None, extra: dict[str, Any] | None = None,
+                     headers: dict[str, str] | None = None) -> JSONResponse:
+    """A problem+json response."""
+    body: dict[str, Any] = {"type": "about:blank", "title": title or TITLES.get(status, "Error"), "status": status,
+                            "detail": detail}
+    if field:
+        body["field"] = field
+    if instance:
+        body["instance"] = instance
+    body.update(extra or {})
+    return JSONResponse(body, status_code=status, media_type=PROBLEM_JSON, headers=headers)
+
+
+def _loc(loc: tuple[Any, ...] | list[Any]) -> str:
+    """Dotted field path of a pydantic error location (without the leading 'body')."""
+    parts = [str(p) for p in loc if p not in ("body", "query", "path")]
+    return ".".join(parts) or "body"
+
+
+def install(app: FastAPI) -> None:
+    """Register the problem+json handlers on ``app``."""
+
+    @app.exception_handler(Problem)
+    async def _problem(request: Request, exc: Problem) -> JSONResponse:
+        return problem_response(exc.status, exc.detail, title=exc.title, field=exc.field,
+                                instance=str(request.url.path), extra=exc.extra, headers=exc.headers)
+
+    @app.exception_handler(RequestValidationError)
+    async def _validation(request: Request, exc: RequestValidationError) -> JSONResponse:
+        errors = [{"field": _loc(e.get("loc", ())), "reason": e.get("msg", "invalid")} for e in exc.errors()]
+        first = errors[0] if errors else {"field": "body", "reason": "invalid request"}
+        return problem_response(422, f"{first['field']}: {first['reason']}", field=first["field"],
+                                instance=str(request.url.path), extra={"errors": errors})
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(request: Request, exc: StarletteHTTPException) -> JSONResponse:
+        return problem_response(exc.status_code, str(exc.detail), instance=str(request.url.path),
+                                headers=getattr(exc, "headers", None))
+
+    @app.exception_handler(Exception)
+    async def _unexpected(request: Request, exc: Exception) -> JSONResponse:
+        log.exception("unhandled error on %s", request.url.path)
+        return problem_response(500, f"internal error: {type(exc).__name__}", instance=str(request.url.path))

@@ -1,0 +1,238 @@
+"""Flutter evaluation endpoints: one structure (synchronous), batches, stored evaluations, V-g data, plots."""
+
+from __future__ import annotations
+
+import io
+import math
+from typing import Any, Literal
+
+import numpy as np
+from fastapi import APIRouter, Depends, Query, Response
+
+from api.deps import Service, require_key, service, wing_or_404
+from api.problems import Problem, from_value_error, invalid
+from api.schemas import BatchRequest, FlutterRequest
+from romams import jobs
+from romams.serialize import to_jsonable
+from romams.store import content_hash
+
+router = APIRouter(tags=["flutter"])
+
+
+def _basis_and_roms(svc: Service, wid: int, basis_id: int | None, machs: list[float] | None,
+                    field: str = "machs") -> tuple[int, list[list[float]]]:
+    """Basis id and [(mach, rom_id)] to evaluate; 409/404/422 naming the field when not available."""
+    bid = basis_id if basis_id is not None else svc.store.latest_basis_id(wid)
+    if bid is None:
+        raise Problem(409, "basis_id: the wing has no basis yet; POST /api/v1/wings/{id}/basis first", "basis_id")
+    roms = svc.store.list_roms(wid, bid)
+    if basis_id is not None and not roms and bid not in {b["id"] for b in svc.store.list_bases(wid)}:
+        raise Problem(404, f"basis_id: basis {bid} does not belong to wing {wid}", "basis_id")
+    trained: dict[float, int] = {}
+    for r in sorted(roms, key=lambda r: r["id"]):  # newest ROM of each Mach wins
+        trained[round(float(r["mach"]), 6)] = int(r["id"])
+    if not trained:
+        raise Problem(409, f"{field}: no ROM is trained for basis {bid}; POST /api/v1/wings/{wid}/roms first", field)
+    if machs is None:
+        return bid, [[m, trained[m]] for m in sorted(trained)]
+    out = []
+    for i, m in enumerate(machs):
+        key = round(float(m), 6)
+        if key not in trained:
+            raise invalid(f"{field}[{i}]", f"Mach {m} is not trained for basis {bid}; trained: {sorted(trained)}")
+        out.append([key, trained[key]])
+    if len({m for m, _ in out}) != len(out):
+        raise invalid(field, "contains duplicates")
+    return bid, out
+
+
+def _design_vector(wing: Any, design: Any, field: str) -> list[float] | None:
+    """Validated design vector (in the wing's variable order); 422 naming the field and the reason."""
+    if design is None:
+        if not getattr(wing, "has_baseline", False):
+            raise invalid(field, "required: the wing has no baseline structure")
+        return None
+    if isinstance(design, list) and len(design) != len(wing.design_variables):
+        raise invalid(field, f"expected {len(wing.design_variables)} values in the order {wing.variable_names}, "
+                             f"got {len(design)}")
+    try:
+        vec = np.asarray(wing.design_vector(design), dtype=float)
+    except ValueError as exc:
+        raise from_value_error(exc, field) from exc
+    if not np.all(np.isfinite(vec)):
+        raise invalid(field, "contains non-finite values")
+    return vec.tolist()
+
+
+def _inline_modes(svc: Service, wing: Any, modes: dict[str, Any]) -> int:
+    """Validate external modes against the wing's standard mesh and store them; returns the modes id."""
+    from romams_core.mesh import standard_mesh
+    from romams_core.modes_io import external_modal_result, modes_from_dict
+
+    try:
+        m = modes_from_dict(modes, "json")
+        if m.generalized_masses is not None:
+            gm = np.asarray(m.generalized_masses, dtype=float)
+            if gm.shape != m.frequencies_hz.shape or not np.all(gm > 0):
+                raise ValueError("generalized_masses: must be positive, one per mode")
+        if np.any(m.frequencies_hz <= 0):
+            raise ValueError("frequencies_hz: must be > 0")
+        external_modal_result(m, standard_mesh(wing.planform))
+    except ValueError as exc:
+        raise from_value_error(exc, "modes") from exc
+    summary = {"n_nodes": int(m.nodes.shape[0]), "n_modes": int(m.shapes.shape[1])}
+    return svc.store.save_modes(m, "json", summary=summary)
+
+
+def _wait(svc: Service, job_id: str, timeout_s: float) -> dict[str, Any] | None:
+    """Wait for a job's final state (None on timeout)."""
+    return jobs.wait_for(svc.store, job_id, timeout_s)
+
+
+def _failed(job: dict[str, Any]) -> Problem:
+    """Problem for a failed evaluation job (input was validated: a server-side failure)."""
+    err = (job.get("error") or "evaluation failed").splitlines()[0]
+    if err.startswith("ValueError: "):
+        return Problem(422, err.removeprefix("ValueError: "), extra={"job_id": job["id"]})
+    return Problem(500, f"evaluation failed: {err}", extra={"job_id": job["id"]})
+
+
+@router.post("/wings/{wing}/flutter", dependencies=[Depends(require_key)])
+def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
+    """Flutter evaluation of one structure at the trained (or given) Mach numbers; synchronous."""
+    wid, w = wing_or_404(svc, wing)
+    bid, rom_ids = _basis_and_roms(svc, wid, body.basis_id, body.machs)
+    design = None
+    modes_id = body.modes_id
+    if body.modes is not None:
+        modes_id = _inline_modes(svc, w, body.modes.model_dump())
+    elif modes_id is not None:
+        try:
+            svc.store.load_modes(modes_id)
+        except KeyError as exc:
+            raise Problem(404, f"modes_id: no uploaded modes {modes_id}", "modes_id") from exc
+    else:
+        design = _design_vector(w, body.design, "design")
+    request = body.model_dump(exclude={"modes"})
+    h = content_hash("flutter", wid, bid, rom_ids, design) if modes_id is None else None
+    if h is not None and body.store:
+        cached = svc.store.find_evaluation(h)
+        if cached is not None:
+            return {**cached["summary"], "evaluation_id": cached["id"], "cached": True}
+    params = {"basis_id": bid, "rom_ids": rom_ids, "design": design, "modes_id": modes_id, "store": body.store,
+              "request": request, "method": body.method, "content_hash": h}
+    job_id = jobs.submit(svc.store, svc.celery, "flutter", params, wing_id=wid)
+    job = _wait(svc, job_id, svc.settings.sync_timeout_s)
+    if job is None:
+        response.status_code = 202
+        response.headers["Location"] = f"/api/v1/jobs/{job_id}"
+        return {"job_id": job_id, "status": "queued"}
+    if job["status"] != "succeeded":
+        raise _failed(job)
+    return {**job["result"], "job_id": job_id}
+
+
+@router.post("/wings/{wing}/flutter/batch", dependencies=[Depends(require_key)])
+def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
+    """Batch of designs: results in order (synchronous up to batch_sync_max designs, else 202 with a job)."""
+    wid, w = wing_or_404(svc, wing)
+    n = len(body.designs)
+    if n > svc.settings.batch_max:
+        raise Problem(413, f"designs: at most {svc.settings.batch_max} designs per batch, got {n}", "designs")
+    bid, rom_ids = _basis_and_roms(svc, wid, body.basis_id, body.machs)
+    vectors = [_design_vector(w, d, f"designs[{i}]") for i, d in enumerate(body.designs)]
+    chunk = max(1, min(svc.settings.batch_chunk, math.ceil(n / 4)))
+    params = {"basis_id": bid, "rom_ids": rom_ids, "n": n, "method": body.method}
+    parent = svc.store.create_job("flutter-batch", params, wing_id=wid, stage="fanout",
+                                  message=f"{n} designs in {math.ceil(n / chunk)} chunks")
+    kids = [svc.store.create_job("flutter-chunk", {"basis_id": bid, "rom_ids": rom_ids, "index": k,
+                                                   "designs": vectors[i:i + chunk]}, wing_id=wid, parent_id=parent)
+            for k, i in enumerate(range(0, n, chunk))]
+    for k in kids:
+        jobs.send(svc.celery, jobs.TASK_FOR_KIND["flutter-chunk"], k)
+    if n > svc.settings.batch_sync_max:
+        response.status_code = 202
+        response.headers["Location"] = f"/api/v1/jobs/{parent}"
+        return {"job_id": parent, "status": "queued", "n": n}
+    job = _wait(svc, parent, svc.settings.sync_timeout_s)
+    if job is None:
+        response.status_code = 202
+        response.headers["Location"] = f"/api/v1/jobs/{parent}"
+        return {"job_id": parent, "status": "running", "n": n}
+    if job["status"] != "succeeded":
+        raise _failed(job)
+    return {"results": job["result"]["results"], "job_id": parent}
+
+
+# ---- stored evaluations ---------------------------------------------------------------------------
+def _evaluation_or_404(svc: Service, evaluation_id: int, full: bool = False) -> dict[str, Any]:
+    """Stored evaluation or a 404 problem."""
+    ev = svc.store.get_evaluation(evaluation_id, full=full)
+    if ev is None:
+        raise Problem(404, f"evaluation_id: no evaluation {evaluation_id}", "evaluation_id")
+    return ev
+
+
+@router.get("/evaluations")
+def list_evaluations(wing_id: int | None = None, limit: int = Query(default=20, ge=1, le=500),
+                     svc: Service = Depends(service)) -> list[dict[str, Any]]:
+    """Newest stored evaluations (summaries)."""
+    return svc.store.list_evaluations(wing_id, limit)
+
+
+@router.get("/evaluations/{evaluation_id}")
+def get_evaluation(evaluation_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
+    """A stored evaluation: request and summary."""
+    return _evaluation_or_404(svc, evaluation_id)
+
+
+def flutter_results(result: Any) -> list[Any]:
+    """Per-Mach FlutterResult objects of a stored evaluation result."""
+    return list(getattr(result, "results", []) or [])
+
+
+@router.get("/evaluations/{evaluation_id}/vg")
+def vg_data(evaluation_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
+    """V-g and V-omega data of every Mach: speeds (m/s), q (Pa), damping g and frequencies (rad/s) per branch."""
+    ev = _evaluation_or_404(svc, evaluation_id, full=True)
+    out = []
+    for r in flutter_results(ev["result"]):
+        out.append({"mach": r.mach, "sweep": r.sweep, "v_m_s": r.v, "q_pa": r.q, "rho": r.rho,
+                    "altitude_m": r.altitude, "g": r.g, "omega_rad_s": r.omega,
+                    "v_flutter_m_s": r.v_flutter_m_s, "omega_flutter_rad_s": r.omega_flutter_rad_s,
+                    "flutter_mode": r.flutter_mode})
+    return to_jsonable({"evaluation_id": evaluation_id, "machs": out})
+
+
+@router.get("/evaluations/{evaluation_id}/plot.{fmt}")
+def evaluation_plot(evaluation_id: int, fmt: Literal["png", "svg"],
+                    kind: Literal["vg", "envelope"] = "vg", svc: Service = Depends(service)) -> Response:
+    """V-g / V-omega plot, or the envelope of this design vs the wing's baseline, as PNG or SVG."""
+    ev = _evaluation_or_404(svc, evaluation_id, full=True)
+    from romams.plots import service_plots
+
+    if kind == "vg":
+        fig = service_plots.vg_figure(flutter_results(ev["result"]))
+    else:
+        fig = service_plots.envelope_figure(ev["result"], baseline_summary(svc, ev))
+    return figure_response(fig, fmt)
+
+
+def baseline_summary(svc: Service, ev: dict[str, Any]) -> dict[str, Any] | None:
+    """Summary of the wing's baseline evaluation on the same basis, if one is stored."""
+    for other in svc.store.list_evaluations(ev["wing_id"], limit=200):
+        req = (svc.store.get_evaluation(other["id"]) or {}).get("request", {})
+        if other["basis_id"] == ev["basis_id"] and req.get("design") is None and req.get("modes_id") is None \
+                and other["method"] == ev["method"]:
+            return other["summary"]
+    return None
+
+
+def figure_response(fig: Any, fmt: str) -> Response:
+    """Render a matplotlib figure to a PNG/SVG response."""
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return Response(buf.getvalue(), media_type="image/png" if fmt == "png" else "image/svg+xml")

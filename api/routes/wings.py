@@ -1,0 +1,180 @@
+"""Wings, bases and ROM training endpoints."""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+from typing import Any
+
+from fastapi import APIRouter, Depends, Response
+
+from api.deps import Service, require_key, service, wing_or_404
+from api.problems import Problem, from_value_error, invalid
+from api.schemas import BasisRequest, Created, JobRef, RomRequest, WingCreate
+from romams.jobs import submit
+from romams.store import content_hash, rom_key
+
+router = APIRouter(tags=["wings"])
+
+#: train_rom arguments set by the service itself (not allowed in ``options``)
+_RESERVED = {"mesh", "shapes", "mach", "solver", "na", "nb", "progress"}
+
+
+def wing_view(wid: int, wing: Any, svc: Service) -> dict[str, Any]:
+    """JSON view of a wing with its design variables, bases and ROMs."""
+    info = svc.store.wing_info(wid) or {}
+    dvs = [{"name": v.name, "lower": v.lower, "upper": v.upper, "unit": v.unit, "description": v.description}
+           for v in getattr(wing, "design_variables", ())]
+    return {"id": wid, "name": info.get("name"), "created_at": info.get("created_at"),
+            "design_variables": dvs, "has_baseline": bool(getattr(wing, "has_baseline", False)),
+            "latest_basis_id": svc.store.latest_basis_id(wid),
+            "trained_machs": sorted({r["mach"] for r in svc.store.list_roms(wid)}),
+            "definition": info.get("definition", {}).get("data")}
+
+
+@router.post("/wings", status_code=201, response_model=Created, dependencies=[Depends(require_key)])
+def create_wing(body: WingCreate, svc: Service = Depends(service)) -> dict[str, int]:
+    """Create a wing from a template ({"template": "cropped-delta", "name": ...}) or a full definition."""
+    from romams_core import wing as wing_mod
+
+    try:
+        if body.template is not None:
+            wing = wing_mod.template(body.template)
+        else:
+            wing = wing_mod.WingDefinition.from_dict(body.definition or {})
+    except ValueError as exc:
+        raise from_value_error(exc, "template" if body.template is not None else "definition") from exc
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise invalid("definition", f"malformed wing definition ({type(exc).__name__}: {exc})") from exc
+    if body.name:
+        try:
+            wing = dataclasses.replace(wing, name=body.name)
+        except ValueError as exc:
+            raise from_value_error(exc) from exc
+    try:
+        wid = svc.store.create_wing(wing, body.name)
+    except ValueError as exc:
+        raise Problem(409, str(exc), "name") from exc
+    return {"id": wid}
+
+
+@router.get("/wings")
+def list_wings(svc: Service = Depends(service)) -> list[dict[str, Any]]:
+    """All stored wings."""
+    out = []
+    for w in svc.store.list_wings():
+        w["latest_basis_id"] = svc.store.latest_basis_id(w["id"])
+        w["trained_machs"] = sorted({r["mach"] for r in svc.store.list_roms(w["id"])})
+        out.append(w)
+    return out
+
+
+@router.get("/wings/{wing}")
+def get_wing(wing: str, svc: Service = Depends(service)) -> dict[str, Any]:
+    """One wing (by id or name) with its design variables."""
+    wid, w = wing_or_404(svc, wing)
+    return wing_view(wid, w, svc)
+
+
+@router.post("/wings/{wing}/basis", status_code=202, response_model=JobRef, dependencies=[Depends(require_key)])
+def start_basis(wing: str, body: BasisRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
+    """Start a basis job (LHS samples x modal analyses -> PCA basis)."""
+    wid, w = wing_or_404(svc, wing)
+    s = svc.settings
+    if body.samples > s.max_samples:
+        raise invalid("samples", f"must be <= {s.max_samples}, got {body.samples}")
+    if body.modes > s.max_modes:
+        raise invalid("modes", f"must be <= {s.max_modes}, got {body.modes}")
+    if not getattr(w, "design_variables", ()):
+        raise invalid("wing", "the wing has no design variables to sample")
+    params = body.model_dump()
+    key = content_hash("basis", wid, params)
+    active = svc.store.find_active_job(key)
+    if active is not None:
+        response.status_code = 200
+        return {"job_id": active["id"], "existing": True}
+    return {"job_id": submit(svc.store, svc.celery, "basis", params, wing_id=wid, key=key)}
+
+
+@router.get("/wings/{wing}/bases")
+def list_bases(wing: str, svc: Service = Depends(service)) -> list[dict[str, Any]]:
+    """Bases of a wing, newest first: parameters, size m, MAC table (worst MAC by m, per-sample MACs)."""
+    wid, _ = wing_or_404(svc, wing)
+    out = []
+    for b in svc.store.list_bases(wid):
+        sm = b["summary"]
+        n_modes = int(sm.get("n_modes") or b["params"].get("modes") or 1)
+        table = sm.get("mac_table")
+        if isinstance(table, list) and n_modes and len(table) % n_modes == 0:
+            b["mac_by_sample"] = [table[i:i + n_modes] for i in range(0, len(table), n_modes)]
+        out.append(b)
+    return out
+
+
+def _train_options(options: dict[str, Any]) -> dict[str, Any]:
+    """Validate extra train_rom keyword settings against its signature (names and JSON scalar values)."""
+    if not options:
+        return {}
+    from romams_core.training import train_rom
+
+    sig = inspect.signature(train_rom)
+    allowed = {n for n, p in sig.parameters.items() if p.kind is p.KEYWORD_ONLY or p.default is not p.empty}
+    allowed -= _RESERVED
+    for k, v in options.items():
+        if k not in allowed:
+            raise invalid(f"options.{k}", f"not a training setting; allowed: {sorted(allowed)}")
+        if isinstance(v, float) and not math.isfinite(v):
+            raise invalid(f"options.{k}", "must be finite")
+        if not isinstance(v, bool | int | float | str | type(None)):
+            raise invalid(f"options.{k}", "must be a number, string, boolean or null")
+    return dict(sorted(options.items()))
+
+
+@router.post("/wings/{wing}/roms", status_code=202, dependencies=[Depends(require_key)])
+def start_training(wing: str, body: RomRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
+    """Train ROMs: one job per Mach; an identical request returns the existing model or the running job."""
+    wid, _ = wing_or_404(svc, wing)
+    basis_id = body.basis_id if body.basis_id is not None else svc.store.latest_basis_id(wid)
+    if basis_id is None:
+        raise Problem(409, "basis_id: the wing has no basis yet; POST /api/v1/wings/{id}/basis first", "basis_id")
+    if body.basis_id is not None and basis_id not in {b["id"] for b in svc.store.list_bases(wid)}:
+        raise Problem(404, f"basis_id: basis {basis_id} does not belong to wing {wid}", "basis_id")
+    if body.solver == "uvlm":
+        bad = [m for m in ([body.mach] if body.mach is not None else body.machs or []) if m >= 1.0]
+        if bad:
+            raise invalid("mach" if body.mach is not None else "machs",
+                          f"the linear UVLM is subsonic only (Mach < 1), got {bad[0]}")
+    options = _train_options(body.options)
+    identity = {"solver": body.solver, "na": body.na, "nb": body.nb, "options": options}
+    machs = [float(body.mach)] if body.mach is not None else [float(m) for m in body.machs or []]
+    if len({round(m, 6) for m in machs}) != len(machs):
+        raise invalid("machs", "contains duplicates")
+    items: list[dict[str, Any]] = []
+    created = False
+    for mach in machs:
+        key = rom_key(wid, basis_id, mach, identity)
+        rom_id = svc.store.find_rom_id(wid, basis_id, mach, identity)
+        if rom_id is not None:
+            row = next((r for r in svc.store.list_roms(wid, basis_id) if r["id"] == rom_id), {})
+            items.append({"mach": mach, "job_id": row.get("job_id"), "rom_id": rom_id, "existing": True})
+            continue
+        active = svc.store.find_active_job(key)
+        if active is not None:
+            items.append({"mach": mach, "job_id": active["id"], "rom_id": None, "existing": True})
+            continue
+        params = {"mach": mach, "basis_id": basis_id, "identity": identity, **identity}
+        items.append({"mach": mach, "rom_id": None, "existing": False,
+                      "job_id": submit(svc.store, svc.celery, "training", params, wing_id=wid, key=key)})
+        created = True
+    response.status_code = 202 if created else 200
+    if body.mach is not None:
+        return items[0]
+    return {"job_ids": [i["job_id"] for i in items], "items": items}
+
+
+@router.get("/wings/{wing}/roms")
+def list_roms(wing: str, basis_id: int | None = None, svc: Service = Depends(service)) -> list[dict[str, Any]]:
+    """Trained ROMs of a wing: Mach, solver settings, validation fit error."""
+    wid, _ = wing_or_404(svc, wing)
+    return svc.store.list_roms(wid, basis_id)

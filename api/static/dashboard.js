@@ -1,0 +1,55 @@
+// romams dashboard poller: refreshes the jobs table from /api/v1/jobs every second (no dependencies).
+"use strict";
+(function () {
+  const tbody = document.querySelector("#jobs tbody");
+  const state = document.getElementById("poll-state");
+  let finishedSeen = new Set();
+
+  function esc(s) {
+    return String(s === null || s === undefined ? "" : s)
+      .replace(/&/g, "&amp;").replace(/</g, "&lt;").replace(/>/g, "&gt;").replace(/"/g, "&quot;");
+  }
+
+  function row(j) {
+    const pct = Math.round(100 * j.progress);
+    return '<tr data-job="' + esc(j.id) + '"><td class="mono">' + esc(j.id.slice(0, 8)) + "</td><td>" +
+      esc(j.kind) + '</td><td class="st st-' + esc(j.status) + '">' + esc(j.status) + "</td>" +
+      '<td><div class="bar"><div class="fill" style="width:' + pct + '%"></div></div><span class="pct">' + pct +
+      "%</span></td><td>" + esc(j.message) + "</td><td>" + esc(j.created_at) + "</td></tr>";
+  }
+
+  async function poll() {
+    try {
+      const r = await fetch("/api/v1/jobs?limit=30", { headers: { Accept: "application/json" } });
+      if (!r.ok) throw new Error("HTTP " + r.status);
+      const jobs = await r.json();
+      tbody.innerHTML = jobs.map(row).join("");
+      state.textContent = "updated " + new Date().toLocaleTimeString();
+      // a job that just finished may have produced a basis, ROM or evaluation: refresh those sections
+      let reload = false;
+      for (const j of jobs) {
+        const done = j.status === "succeeded";
+        if (done && !finishedSeen.has(j.id)) { if (finishedSeen.size) reload = true; }
+        if (done) finishedSeen.add(j.id);
+      }
+      if (reload) refreshSections();
+      if (!finishedSeen.size) finishedSeen.add("-");
+    } catch (err) {
+      state.textContent = "poll failed: " + err.message;
+    }
+  }
+
+  async function refreshSections() {
+    try {
+      const r = await fetch("/dashboard");
+      const doc = new DOMParser().parseFromString(await r.text(), "text/html");
+      for (const id of ["wings-section", "evaluations-section"]) {
+        const fresh = doc.getElementById(id);
+        if (fresh) document.getElementById(id).replaceWith(fresh);
+      }
+    } catch (err) { /* the next poll retries */ }
+  }
+
+  poll();
+  setInterval(poll, 1000);
+})();

@@ -1,0 +1,193 @@
+"""Job state helpers shared by the API and the workers.
+
+The job row is the source of truth. Submitting commits the row first and sends the Celery message
+after (with the row id as the task id). A task runs inside :func:`run_job`: a guarded start that
+counts deliveries (over the cap the job fails with the reason), a heartbeat thread that touches the
+row while the task is alive, a progress callback that raises ``Cancelled`` once the job was cancelled,
+and a guarded final transition. :func:`sweep_stale` re-sends running jobs whose worker died.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import traceback
+from collections.abc import Callable
+from typing import Any
+
+from romams.store import Store
+
+try:  # the core's cancellation exception, raised by progress callbacks and passed through by solvers
+    from romams_core.aero.protocol import Cancelled
+except ImportError:  # pragma: no cover - the protocol module is part of the core
+
+    class Cancelled(Exception):  # type: ignore[no-redef]
+        """Raised to abort a cancelled job."""
+
+
+#: task name that runs a job of each kind (the sweeper re-sends by kind)
+TASK_FOR_KIND = {
+    "basis": "romams.training.basis",
+    "basis-chunk": "romams.training.basis_chunk",
+    "training": "romams.training.rom",
+    "flutter": "romams.evaluation.flutter",
+    "flutter-chunk": "romams.evaluation.flutter_chunk",
+}
+FINALIZE_FOR_KIND = {"basis": "romams.training.basis_finalize", "flutter-batch": "romams.evaluation.batch_finalize"}
+
+ProgressFn = Callable[[float, str], None]
+
+
+class JobFailed(Exception):
+    """A job failure with a user-facing reason (stored as the job's error text)."""
+
+
+def send(celery: Any, task_name: str, job_id: str) -> None:
+    """Send the message for a committed job row (task id = job id)."""
+    celery.send_task(task_name, args=[job_id], task_id=job_id if task_name in TASK_FOR_KIND.values() else None)
+
+
+def submit(store: Store, celery: Any, kind: str, params: dict[str, Any], *, wing_id: int | None = None,
+           key: str | None = None, parent_id: str | None = None, stage: str | None = None,
+           send_now: bool = True) -> str:
+    """Create the job row (committed) and then send its task; returns the job id."""
+    job_id = store.create_job(kind, params, wing_id=wing_id, key=key, parent_id=parent_id, stage=stage)
+    if send_now:
+        send(celery, TASK_FOR_KIND[kind], job_id)
+    return job_id
+
+
+def wait_for(store: Store, job_id: str, timeout_s: float, poll_s: float = 0.01) -> dict[str, Any] | None:
+    """Poll a job row until it is final; the final job dict, or None on timeout."""
+    deadline = time.monotonic() + timeout_s
+    delay = poll_s
+    while True:
+        status = store.job_status(job_id)
+        if status in ("succeeded", "failed", "cancelled"):
+            return store.get_job(job_id)
+        if status is None or time.monotonic() > deadline:
+            return None
+        time.sleep(delay)
+        delay = min(delay * 1.5, 0.2)
+
+
+class _Heartbeat:
+    """Background thread touching a running job row every ``period_s`` seconds."""
+
+    def __init__(self, store: Store, job_id: str, period_s: float) -> None:
+        self._stop = threading.Event()
+        self._t = threading.Thread(target=self._run, args=(store, job_id, period_s), daemon=True)
+
+    def _run(self, store: Store, job_id: str, period_s: float) -> None:
+        while not self._stop.wait(period_s):
+            try:
+                if not store.heartbeat(job_id):
+                    return
+            except Exception:  # a transient database error must not kill the task
+                continue
+
+    def __enter__(self) -> _Heartbeat:
+        self._t.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+
+
+def progress_callback(store: Store, job_id: str, lo: float = 0.0, hi: float = 1.0,
+                      min_interval_s: float = 0.2) -> ProgressFn:
+    """Progress reporter mapping 0..1 onto lo..hi of the job; raises Cancelled when the job is no longer running."""
+    last = [0.0]
+
+    def report(fraction: float, message: str = "") -> None:
+        now = time.monotonic()
+        if now - last[0] < min_interval_s and fraction < 1.0:
+            if store.job_status(job_id) != "running":
+                raise Cancelled(f"job {job_id} is no longer running")
+            return
+        last[0] = now
+        if not store.set_progress(job_id, lo + (hi - lo) * float(fraction), message):
+            raise Cancelled(f"job {job_id} is no longer running")
+
+    return report
+
+
+def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressFn], Any], *, max_deliveries: int,
+            heartbeat_s: float, count_delivery: bool = True, finish: bool = True) -> Any:
+    """Run ``body(job, progress)`` for a job row with guarded start/finish; returns body's result (or None)."""
+    if count_delivery:
+        ok, _ = store.start_job(job_id, max_deliveries)
+        if not ok:
+            return None
+    elif store.job_status(job_id) != "running":
+        return None
+    job = store.get_job(job_id)
+    if job is None:
+        return None
+    try:
+        with _Heartbeat(store, job_id, heartbeat_s):
+            result = body(job, progress_callback(store, job_id))
+    except Cancelled:
+        store.finish_job(job_id, "cancelled", message="cancelled")
+        return None
+    except (ValueError, KeyError, JobFailed) as exc:
+        store.finish_job(job_id, "failed", error=f"{type(exc).__name__}: {exc}", message="failed")
+        return None
+    except Exception as exc:  # noqa: BLE001 - every failure must end in a final job state
+        tb = traceback.format_exc(limit=8)
+        name = type(exc).__name__
+        reason = "time limit exceeded" if name in ("SoftTimeLimitExceeded", "TimeLimitExceeded") else str(exc)
+        store.finish_job(job_id, "failed", error=f"{name}: {reason}\n{tb}", message="failed")
+        return None
+    if finish:
+        store.finish_job(job_id, "succeeded", result=result, message="done")
+    return result
+
+
+def sweep_stale(store: Store, celery: Any, stale_s: float) -> list[str]:
+    """Re-send running jobs untouched for ``stale_s`` seconds (their worker died); returns their ids."""
+    resent = []
+    for job in store.stale_jobs(stale_s):
+        kind, stage = job["kind"], None
+        with store.session() as s:
+            from romams.db import Job
+
+            row = s.get(Job, job["id"])
+            stage = row.stage if row is not None else None
+        if stage == "fanout":
+            store.heartbeat(job["id"])  # its chunks carry the work; they are swept on their own
+            continue
+        task = FINALIZE_FOR_KIND.get(kind) if stage == "finalize" else TASK_FOR_KIND.get(kind)
+        if task is None:
+            continue
+        if stage == "finalize":
+            store.heartbeat(job["id"])
+            celery.send_task(task, args=[job["id"]])
+        elif store.requeue(job["id"], f"re-sent after {stale_s:.0f} s without a heartbeat (worker lost)"):
+            celery.send_task(task, args=[job["id"]], task_id=job["id"])
+        resent.append(job["id"])
+    return resent
+
+
+class StaleSweeper:
+    """Daemon thread calling :func:`sweep_stale` periodically (runs in the API process)."""
+
+    def __init__(self, store: Store, celery: Any, stale_s: float, period_s: float | None = None) -> None:
+        self.store, self.celery, self.stale_s = store, celery, stale_s
+        self.period_s = period_s or max(1.0, stale_s / 4)
+        self._stop = threading.Event()
+        self._t = threading.Thread(target=self._run, daemon=True, name="romams-stale-sweeper")
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.period_s):
+            try:
+                sweep_stale(self.store, self.celery, self.stale_s)
+            except Exception:  # noqa: BLE001 - keep sweeping after a transient error
+                continue
+
+    def start(self) -> StaleSweeper:
+        self._t.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()

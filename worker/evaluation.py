@@ -1,0 +1,169 @@
+"""Flutter evaluation tasks (queue "evaluation"): one structure, or a chunk of a batch.
+
+A structure is either a design vector of the wing (modal analysis here) or stored external modes.
+Its modes are projected on the basis and every trained Mach's ROM is turned into modal coordinates
+and coupled with the structure by romams_core.evaluate. Loaded bases/ROMs stay in the worker's
+bounded cache; batch results are also cached by a content hash of (wing, basis, ROMs, design).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from romams.jobs import JobFailed, ProgressFn
+from romams.serialize import to_jsonable
+from romams.store import content_hash
+from worker.cache import LruCache
+from worker.celery_app import app
+from worker.tasks import _run, _settings, load_basis, load_mesh, load_rom, load_wing, store
+
+RESULTS = LruCache(_settings.result_cache_size)  # content hash -> summary dict of one design
+
+
+def _f(x: Any) -> float | None:
+    """Finite float or None."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def structure_modal(wing_id: int, design: list[float] | None, modes_id: int | None, n_modes: int) -> Any:
+    """ModalResult of a design of the wing, or of stored external modes mapped to the standard mesh."""
+    if modes_id is not None:
+        from romams_core.modes_io import external_modal_result
+
+        modes = store().load_modes(int(modes_id))
+        return external_modal_result(modes, load_mesh(wing_id))
+    from romams_core.structure.modal import modal_analysis
+
+    wing = load_wing(wing_id)
+    return modal_analysis(wing, design=None if design is None else np.asarray(design, dtype=float), n_modes=n_modes)
+
+
+def evaluate(wing_id: int, basis_id: int, rom_ids: list[list[float]], design: list[float] | None,
+             modes_id: int | None = None) -> tuple[dict[str, Any], Any]:
+    """Evaluate one structure at the given (mach, rom_id) pairs -> (API summary, full core result)."""
+    from romams_core.evaluate import evaluate_structure
+
+    basis = load_basis(basis_id)
+    roms = [load_rom(int(rid)) for _, rid in rom_ids]
+    modal = structure_modal(wing_id, design, modes_id, int(basis.n_modes))
+    wing = load_wing(wing_id)
+    result = evaluate_structure(modal, basis.shapes, roms, mac_threshold=float(basis.mac_threshold),
+                                **_baseline_kwargs(wing_id, basis_id, rom_ids, wing))
+    return summarize(result, modal, external=modes_id is not None), result
+
+
+def _baseline_kwargs(wing_id: int, basis_id: int, rom_ids: list[list[float]], wing: Any) -> dict[str, Any]:
+    """Hook for evaluate_structure's baseline arguments (the envelope is compared with the wing's baseline)."""
+    return {}
+
+
+def summarize(result: Any, modal: Any, external: bool = False) -> dict[str, Any]:
+    """The API's JSON view of an evaluation: mass, frequencies, MACs, per-Mach flutter points, envelope flag."""
+    per_mach = []
+    for r in getattr(result, "results", []):
+        per_mach.append({
+            "mach": _f(r.mach), "v_flutter_m_s": _f(r.v_flutter_m_s), "omega_flutter_rad_s": _f(r.omega_flutter_rad_s),
+            "q_flutter_pa": _f(r.q_flutter_pa), "sdoff": bool(r.sdoff), "flutter_mode": r.flutter_mode,
+            "flutter_found": bool(getattr(r, "flutter_found", r.v_flutter_m_s is not None)),
+            "safe_altitude_m": _f(_safe_altitude(result, r.mach)), "sweep": getattr(r, "sweep", None),
+            "message": getattr(r, "message", ""),
+        })
+    mass = getattr(modal, "mass_kg", None)
+    return to_jsonable({
+        "mass_kg": None if external and not (mass and math.isfinite(mass) and mass > 0) else _f(mass),
+        "frequencies_hz": np.asarray(modal.frequencies_hz, dtype=float),
+        "mac": np.asarray(getattr(result, "mac", []), dtype=float),
+        "poor_fit": bool(getattr(result, "poor_fit", False)),
+        "results": per_mach,
+        "envelope_ok": getattr(result, "envelope_ok", None),
+    })
+
+
+def _safe_altitude(result: Any, mach: float) -> float | None:
+    """Safe altitude of one Mach from the result's envelope (None where none)."""
+    env = getattr(result, "envelope", None)
+    if env is None:
+        return None
+    machs = np.asarray(getattr(env, "machs", []), dtype=float)
+    alts = np.asarray(getattr(env, "safe_altitude_m", []), dtype=float)
+    idx = np.flatnonzero(np.isclose(machs, float(mach), rtol=0, atol=1e-9))
+    return float(alts[idx[0]]) if idx.size else None
+
+
+@app.task(name="romams.evaluation.flutter", acks_late=True, time_limit=_settings.evaluation_time_limit_s)
+def flutter_job(job_id: str) -> None:
+    """One structure: evaluate, store the evaluation (V-g data) and put the summary in the job result."""
+
+    def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
+        p = job["params"]
+        summary, result = evaluate(job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"), p.get("modes_id"))
+        if p.get("store", True):
+            summary["evaluation_id"] = store().save_evaluation(
+                job["wing_id"], result, summary=summary, request=p.get("request") or {}, basis_id=p["basis_id"],
+                method=p.get("method", "rom-ams"), content_hash=p.get("content_hash"))
+        return summary
+
+    _run(job_id, body)
+
+
+@app.task(name="romams.evaluation.flutter_chunk", acks_late=True, time_limit=_settings.evaluation_time_limit_s)
+def flutter_chunk(job_id: str) -> None:
+    """A chunk of a batch: summaries of each design (cached by content hash); the last chunk assembles the batch."""
+
+    def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
+        p = job["params"]
+        out = []
+        designs = p["designs"]
+        for i, d in enumerate(designs):
+            h = content_hash("flutter", job["wing_id"], p["basis_id"], p["rom_ids"], d)
+            summary = RESULTS.get(h)
+            if summary is None:
+                try:
+                    summary, _ = evaluate(job["wing_id"], p["basis_id"], p["rom_ids"], d)
+                except ValueError as exc:  # a design the structure model rejects: reported per design
+                    summary = {"error": str(exc)}
+                RESULTS.put(h, summary)
+            out.append(summary)
+            if (i + 1) % 8 == 0:
+                progress((i + 1) / len(designs), f"{i + 1}/{len(designs)} designs")
+        return {"index": p["index"], "results": out}
+
+    _run(job_id, body)
+    job = store().get_job(job_id)
+    if job and job["parent_id"] and job["status"] in ("succeeded", "failed"):
+        assemble_batch(job["parent_id"])
+
+
+def assemble_batch(parent_id: str) -> None:
+    """After a chunk: update the batch's progress; when all chunks succeeded, the claimer writes the results."""
+    s = store()
+    kids = s.children(parent_id)
+    failed = [k for k in kids if k["status"] == "failed"]
+    if failed:
+        s.finish_job(parent_id, "failed", error=f"chunk {failed[0]['params'].get('index')}: {failed[0]['error']}")
+        return
+    done = [k for k in kids if k["status"] == "succeeded"]
+    s.update_job(parent_id, expect=("queued",), status="running")
+    s.set_progress(parent_id, len(done) / max(len(kids), 1), f"{len(done)}/{len(kids)} chunks done")
+    if len(done) == len(kids) and s.claim_stage(parent_id, "fanout", "finalize"):
+        results: list[Any] = []
+        for k in sorted(done, key=lambda k: k["params"]["index"]):
+            results.extend(k["result"]["results"])
+        s.finish_job(parent_id, "succeeded", result={"results": results, "n": len(results)}, message="done")
+
+
+@app.task(name="romams.evaluation.batch_finalize", acks_late=True, time_limit=_settings.evaluation_time_limit_s)
+def batch_finalize(job_id: str) -> None:
+    """Re-run the batch assembly (sent by the stale-job sweeper if the assembling worker died)."""
+    s = store()
+    if s.claim_stage(job_id, "finalize", "fanout"):
+        assemble_batch(job_id)
+
+
+__all__ = ["JobFailed", "assemble_batch", "evaluate", "flutter_chunk", "flutter_job", "summarize"]

@@ -1,0 +1,201 @@
+"""Celery tasks: thin wrappers that load inputs from the store, call romams_core and persist results.
+
+Every task takes one job id; the job row (romams.store) carries the parameters, progress and outcome.
+Basis jobs fan out: the parent samples the design space and creates chunk jobs of modal analyses
+(spread over the workers); the chunk that completes last claims the parent's "finalize" stage and
+sends the SVD task. Flutter batches fan out in chunks the same way.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from romams.jobs import JobFailed, ProgressFn, run_job, send
+from romams.settings import get_settings
+from romams.store import Store, open_store
+from worker.cache import LruCache
+from worker.celery_app import app
+
+_STORE: list[Store] = []
+_settings = get_settings()
+OBJECTS = LruCache(_settings.cache_size)  # (kind, id) -> wing / basis / ROM / mesh
+
+
+def store() -> Store:
+    """This process's store (opened on first use, after any fork)."""
+    if not _STORE:
+        _STORE.append(open_store(_settings))
+    return _STORE[0]
+
+
+def reset_process_state() -> None:
+    """Forget the store handle (a forked pool process opens its own)."""
+    _STORE.clear()
+
+
+def _run(job_id: str, body: Any, **kw: Any) -> Any:
+    """run_job with this worker's settings."""
+    return run_job(store(), job_id, body, max_deliveries=_settings.max_deliveries,
+                   heartbeat_s=_settings.heartbeat_s, **kw)
+
+
+# ---- cached loaders ------------------------------------------------------------------------------
+def load_wing(wing_id: int) -> Any:
+    """WingDefinition of a stored wing (cached)."""
+    def load() -> Any:
+        found = store().find_wing(int(wing_id))
+        if found is None:
+            raise JobFailed(f"wing {wing_id} not found")
+        return found[1]
+    return OBJECTS.get_or_load(("wing", int(wing_id)), load)
+
+
+def load_mesh(wing_id: int) -> Any:
+    """Standard mesh of a stored wing (cached)."""
+    from romams_core.mesh import standard_mesh
+
+    return OBJECTS.get_or_load(("mesh", int(wing_id)), lambda: standard_mesh(load_wing(wing_id).planform))
+
+
+def load_basis(basis_id: int) -> Any:
+    """Basis by id (cached)."""
+    return OBJECTS.get_or_load(("basis", int(basis_id)), lambda: store().load_basis(int(basis_id)))
+
+
+def load_rom(rom_id: int) -> Any:
+    """TrainedRom by id (cached; a ROM row never changes, a retrained one gets a new id)."""
+    return OBJECTS.get_or_load(("rom", int(rom_id)), lambda: store().load_rom(int(rom_id)))
+
+
+# ---- basis ---------------------------------------------------------------------------------------
+def _chunks(n: int, size: int) -> list[range]:
+    """Consecutive index ranges of at most ``size`` covering 0..n-1."""
+    return [range(i, min(i + size, n)) for i in range(0, n, size)]
+
+
+@app.task(name="romams.training.basis", acks_late=True, time_limit=_settings.training_time_limit_s)
+def basis_job(job_id: str) -> None:
+    """Basis job: LHS sample of the design space, then chunks of modal analyses fanned out to workers."""
+    from romams_core.basis import sample_designs
+
+    def body(job: dict[str, Any], progress: ProgressFn) -> None:
+        p = job["params"]
+        wing = load_wing(job["wing_id"])
+        designs = sample_designs(wing, int(p["samples"]), seed=int(p["seed"]))
+        s = store()
+        children = s.children(job_id)
+        if not children:
+            for idx, r in enumerate(_chunks(len(designs), _settings.basis_chunk)):
+                s.create_job("basis-chunk", {"index": idx, "designs": designs[r.start:r.stop].tolist(),
+                                             "modes": int(p["modes"])},
+                             wing_id=job["wing_id"], parent_id=job_id)
+            children = s.children(job_id)
+        s.claim_stage(job_id, None, "fanout")
+        progress(0.02, f"{len(designs)} samples in {len(children)} chunks of modal analyses")
+        for c in children:
+            if c["status"] == "queued":
+                send(app, "romams.training.basis_chunk", c["id"])
+
+    _run(job_id, body, finish=False)
+
+
+def _after_chunk(parent_id: str, finalize_task: str, lo: float, hi: float) -> None:
+    """Update a fan-out parent after one of its chunks ended; the last one sends ``finalize_task``."""
+    s = store()
+    kids = s.children(parent_id)
+    failed = [k for k in kids if k["status"] == "failed"]
+    if failed:
+        first = failed[0]
+        s.finish_job(parent_id, "failed", error=f"chunk {first['params'].get('index')} failed: {first['error']}")
+        return
+    done = sum(k["status"] == "succeeded" for k in kids)
+    s.set_progress(parent_id, lo + (hi - lo) * done / max(len(kids), 1), f"{done}/{len(kids)} chunks done")
+    if done == len(kids) and s.claim_stage(parent_id, "fanout", "finalize"):
+        app.send_task(finalize_task, args=[parent_id])
+
+
+@app.task(name="romams.training.basis_chunk", acks_late=True, time_limit=_settings.training_time_limit_s)
+def basis_chunk(job_id: str) -> None:
+    """Modal analyses of one chunk of sample designs; snapshots stored as an artifact."""
+    from romams_core.basis import snapshot
+
+    def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
+        wing = load_wing(job["wing_id"])
+        designs = np.asarray(job["params"]["designs"], dtype=float)
+        k = int(job["params"]["modes"])
+        snaps = []
+        for i, d in enumerate(designs):
+            snaps.append(snapshot(wing, d, k))
+            progress((i + 1) / len(designs), f"modal analysis {i + 1}/{len(designs)}")
+        store().save_artifact(job_id, "snapshots", np.hstack(snaps))
+        return {"n_designs": len(designs)}
+
+    _run(job_id, body)
+    job = store().get_job(job_id)
+    if job and job["parent_id"] and job["status"] in ("succeeded", "failed"):
+        _after_chunk(job["parent_id"], "romams.training.basis_finalize", 0.05, 0.9)
+
+
+@app.task(name="romams.training.basis_finalize", acks_late=True, time_limit=_settings.training_time_limit_s)
+def basis_finalize(job_id: str) -> None:
+    """SVD of all chunk snapshots -> Basis, stored; the parent job succeeds with its summary."""
+    from romams_core.basis import build_basis
+
+    def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
+        p = job["params"]
+        s = store()
+        kids = sorted(s.children(job_id), key=lambda k: k["params"]["index"])
+        snaps = np.hstack([s.load_artifact(k["id"], "snapshots") for k in kids])
+        designs = np.vstack([np.asarray(k["params"]["designs"], dtype=float) for k in kids])
+        wing = load_wing(job["wing_id"])
+        progress(0.92, f"SVD of {snaps.shape[1]} snapshots")
+        basis = build_basis(snaps, mac_threshold=float(p["mac_threshold"]), max_basis=int(p["max_basis"]),
+                            n_modes=int(p["modes"]), designs=designs, design_names=list(wing.variable_names),
+                            wing_name=wing.name)
+        bid = s.save_basis(job["wing_id"], basis, p, job_id=job_id)
+        return {"basis_id": bid, "n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac),
+                "capped": bool(basis.capped), "min_mac_by_m": basis.min_mac_by_m.tolist()}
+
+    _run(job_id, body, count_delivery=False)
+
+
+# ---- training ------------------------------------------------------------------------------------
+def make_solver(name: str) -> Any:
+    """Unsteady solver instance by name ("uvlm", or "tsd" when the transonic solver is installed)."""
+    if name == "uvlm":
+        from romams_core.aero.uvlm import UvlmSolver
+
+        return UvlmSolver()
+    if name == "tsd":
+        try:
+            from romams_core.aero.tsd import TsdSolver
+        except ImportError as exc:
+            raise JobFailed("solver: the transonic small-disturbance solver is not available") from exc
+        return TsdSolver()
+    raise JobFailed(f"solver: unknown solver {name!r}")
+
+
+@app.task(name="romams.training.rom", acks_late=True, time_limit=_settings.training_time_limit_s)
+def training_job(job_id: str) -> None:
+    """Train the aerodynamic ROM of one Mach number on the basis shapes and store it."""
+    from romams_core.training import train_rom
+
+    def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
+        p = dict(job["params"])
+        wing_id, basis_id = int(job["wing_id"]), int(p["basis_id"])
+        basis = load_basis(basis_id)
+        mesh = load_mesh(wing_id)
+        options = dict(p.get("options") or {})
+        progress(0.0, f"training M = {p['mach']:.3f} with {p['solver']} on {basis.n_basis} basis shapes")
+        rom = train_rom(mesh, basis.shapes, float(p["mach"]), make_solver(p["solver"]), na=int(p["na"]),
+                        nb=int(p["nb"]), progress=progress, **options)
+        rid = store().save_rom(wing_id, basis_id, rom, p["identity"], job_id=job_id)
+        nrmse = np.atleast_1d(np.asarray(getattr(rom, "validation_nrmse", np.nan), dtype=float))
+        return {"rom_id": rid, "mach": float(p["mach"]), "validation_nrmse": nrmse.tolist()}
+
+    _run(job_id, body)
+
+
+from worker import evaluation as _evaluation  # noqa: E402,F401  (registers the evaluation tasks)
