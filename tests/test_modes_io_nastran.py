@@ -42,7 +42,7 @@ def _plate():
     return xyz, w
 
 
-def _write_model(tmp_path, *, with_lama=True, bulk_only=True):
+def _write_model(tmp_path, *, with_lama=True, bulk_only=True, freqs=FREQS):
     """Write plate.bdf (some GRIDs in a CP frame, some with a rotated CD frame) and modes.op2."""
     xyz, w = _plate()
     n = xyz.shape[0]
@@ -67,7 +67,7 @@ def _write_model(tmp_path, *, with_lama=True, bulk_only=True):
                 "EIGRL          1                       4", *[ln for ln in bulk if ln.strip() != "ENDDATA"], "ENDDATA"]
         bdf_path.write_text("\n".join(deck) + "\n")
 
-    k = FREQS.size
+    k = freqs.size
     t_basic = np.zeros((k, n, 3))
     t_basic[:, :, 2] = (w * np.sqrt(GEN_MASS)).T  # not mass-normalized; LAMA carries the masses
     t_basic[:, :, 0] = 0.01 * t_basic[:, :, 2]  # some in-plane motion that must be ignored
@@ -77,11 +77,11 @@ def _write_model(tmp_path, *, with_lama=True, bulk_only=True):
     t_out[:, sel, :] = t_basic[:, sel, :] @ rot_cd.T  # components in the CD frame
     data = np.zeros((k, n, 6), dtype="float32")
     data[:, :, :3] = t_out
-    eigs = (2 * np.pi * FREQS) ** 2
+    eigs = np.sign(freqs) * (2 * np.pi * freqs) ** 2
     modes = np.arange(1, k + 1)
     vec = RealEigenvectorArray.add_modal_case(
         "OUGV1", np.column_stack([nids, np.ones(n, dtype=int)]).astype("int32"), data, 1,
-        modes, eigs, FREQS, is_sort1=True,
+        modes, eigs, np.abs(freqs), is_sort1=True,
     )
     vec.table_code = 7  # eigenvector table (the generic helper sets 1 = displacement)
     vec.data_code["table_code"] = 7
@@ -89,8 +89,8 @@ def _write_model(tmp_path, *, with_lama=True, bulk_only=True):
     lama.mode[:] = modes
     lama.extraction_order[:] = modes
     lama.eigenvalues[:] = eigs
-    lama.radians[:] = 2 * np.pi * FREQS
-    lama.cycles[:] = FREQS
+    lama.radians[:] = 2 * np.pi * np.abs(freqs)
+    lama.cycles[:] = np.abs(freqs)
     lama.generalized_mass[:] = GEN_MASS
     lama.generalized_stiffness[:] = GEN_MASS * eigs
     # pyNastran 1.4.1's OP2.write_op2 skips LAMA tables, so the tables are written one by one
@@ -156,3 +156,9 @@ def test_nastran_errors(tmp_path):
     few.write_bdf(str(few_path))
     with pytest.raises(ValueError, match="bdf: GRIDs \\[111, 112"):
         load_modes_nastran(few_path, op2_path)
+
+
+def test_nastran_negative_eigenvalue_is_rejected(tmp_path):
+    bdf_path, op2_path, _, _ = _write_model(tmp_path, freqs=np.array([-0.01, 41.0, 77.0]))
+    with pytest.raises(ValueError, match="frequencies_hz: negative eigenvalues"):
+        load_modes_nastran(bdf_path, op2_path)
