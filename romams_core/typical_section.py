@@ -25,11 +25,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from types import SimpleNamespace
-from typing import Any
 
 import numpy as np
 import scipy.linalg
+
+from romams_core.statespace import DiscreteSS
 
 JONES_A = (0.165, 0.335)
 JONES_BETA = (0.0455, 0.3)  # per semichord-time s = V t / b
@@ -132,7 +132,7 @@ def _foh(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarra
     return phi, g1 - g2, g2
 
 
-def jones_discrete(ts: TypicalSection, dt_star: float, modal: bool = True) -> Any:
+def jones_discrete(ts: TypicalSection, dt_star: float, modal: bool = True) -> DiscreteSS:
     """Discrete aero model (A, B, C, D, dt_star) in t*; inputs/outputs modal (mass-normalized) or physical."""
     if not (math.isfinite(dt_star) and 0 < dt_star <= 1.0):
         raise ValueError(f"dt_star: must be in (0, 1], got {dt_star!r}")
@@ -160,13 +160,6 @@ def jones_discrete(ts: TypicalSection, dt_star: float, modal: bool = True) -> An
     if modal:
         _, phi = modes(ts)
         b, c, d = b @ phi, phi.T @ c, phi.T @ d @ phi
-    return _discrete_ss(a, b, c, d, dt_star)
-
-
-def _discrete_ss(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, dt_star: float) -> Any:
-    """The project's DiscreteSS when available, else a plain namespace with the same attributes."""
-    try:
-        from romams_core.statespace import DiscreteSS  # noqa: PLC0415
-    except ImportError:
-        return SimpleNamespace(A=a, B=b, C=c, D=d, dt_star=float(dt_star))
     return DiscreteSS(A=a, B=b, C=c, D=d, dt_star=float(dt_star))
+
+
