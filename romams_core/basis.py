@@ -144,6 +144,11 @@ class Basis:
         return int(self.shapes.shape[0])
 
     @property
+    def mac_by_m(self) -> np.ndarray:
+        """Alias of ``min_mac_by_m``: worst snapshot MAC [max_basis] with 1..max_basis shapes."""
+        return self.min_mac_by_m
+
+    @property
     def mac_by_mode(self) -> np.ndarray:
         """Snapshot MACs at m as [n_samples, n_modes] (dimensionless)."""
         return self.mac_table.reshape(-1, self.n_modes)

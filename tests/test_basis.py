@@ -57,6 +57,7 @@ def test_basis_recovers_exactly_low_rank_family():
     assert basis.min_mac_by_m[3] < 1.0 - 1e-6
     np.testing.assert_allclose(basis.min_mac_by_m[4:], basis.min_mac_by_m[4], atol=0)
     assert basis.min_mac_by_m.shape == (12,)
+    assert basis.mac_by_m is basis.min_mac_by_m
     assert basis.mac_table.shape == (60,)
     assert basis.mac_by_mode.shape == (15, 4)
     assert basis.singular_values[5] < 1e-12 * basis.singular_values[0]
