@@ -3,7 +3,7 @@ PY ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: install demo test lint bench install-nastran
+.PHONY: install demo test lint bench
 
 $(BIN)/romams: pyproject.toml
 	$(PY) -m venv $(VENV)
