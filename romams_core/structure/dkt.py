@@ -95,26 +95,28 @@ def _quadratic_dn(lam: np.ndarray) -> np.ndarray:
 _GAUSS = np.array([[0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
 # The 6-node order in the constraint matrix is corners, then midsides of (1,2), (2,3), (3,1): same as _quadratic_dn.
 _DN_GAUSS = np.stack([_quadratic_dn(g) for g in _GAUSS])  # [3, 6, 3]
+_DN_GAUSS_T = _DN_GAUSS.transpose(0, 2, 1)  # [3 gauss, 3 L, 6 nodes]
 
 
 def curvature_matrices(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Curvature-displacement matrices B [E, 3 gauss, 3, 9] (1/m) at the side midpoints and areas [E] (m^2)."""
     area, dldx, dldy = triangle_geometry(xy)
-    nx = np.einsum("gnk,ek->egn", _DN_GAUSS, dldx)  # [E, 3, 6]
-    ny = np.einsum("gnk,ek->egn", _DN_GAUSS, dldy)
+    nx = np.matmul(dldx, _DN_GAUSS_T).transpose(1, 0, 2)  # [E, 3 gauss, 6 nodes]
+    ny = np.matmul(dldy, _DN_GAUSS_T).transpose(1, 0, 2)
     bq = np.zeros(xy.shape[:1] + (3, 3, 12))
     bq[:, :, 0, 0::2] = nx
     bq[:, :, 1, 1::2] = ny
     bq[:, :, 2, 0::2] = ny
     bq[:, :, 2, 1::2] = nx
-    b = np.einsum("egij,ejk->egik", bq, _constraint_matrix(xy))
+    b = np.matmul(bq, _constraint_matrix(xy)[:, None])
     return b, area
 
 
 def dkt_stiffness(xy: np.ndarray, d: np.ndarray) -> np.ndarray:
     """Element stiffness [E, 9, 9] (SI) of triangles [E, 3, 2] (m) with bending stiffness D [E, 3, 3] (N m)."""
     b, area = curvature_matrices(xy)
-    return np.einsum("e,egji,ejk,egkl->eil", area / 3.0, b, d, b, optimize=True)
+    db = np.matmul(d[:, None], b)  # [E, 3, 3, 9]
+    return np.matmul(b.transpose(0, 1, 3, 2), db).sum(axis=1) * (area / 3.0)[:, None, None]
 
 
 def bernstein_coefficients(xy: np.ndarray) -> np.ndarray:
@@ -147,4 +149,4 @@ def cubic_mass(xy: np.ndarray, mass_per_area: np.ndarray) -> np.ndarray:
     """Consistent element mass [E, 9, 9] (kg, kg m, kg m^2) of triangles [E, 3, 2] with rho*h [E] (kg/m^2)."""
     area, _, _ = triangle_geometry(xy)
     c = bernstein_coefficients(xy)
-    return np.einsum("e,eai,ab,ebj->eij", mass_per_area * area, c, _GRAM, c, optimize=True)
+    return np.matmul(c.transpose(0, 2, 1), np.matmul(_GRAM, c)) * (mass_per_area * area)[:, None, None]

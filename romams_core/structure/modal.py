@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import eigsh
+from scipy.linalg import cho_solve_banded, cholesky_banded, eigh
+from scipy.sparse.linalg import LinearOperator, eigsh
 
 from romams_core.mesh import Planform, StandardMesh, standard_mesh
 from romams_core.structure.beam import beam_element_matrices, rectangle_torsion_constant
@@ -64,9 +65,15 @@ class FEModel:
 
 def _assemble(conn: np.ndarray, ke: np.ndarray, n_dof: int) -> sp.csc_matrix:
     """Sparse global matrix from element matrices ke [E, n, n] with DOF connectivity conn [E, n]."""
-    rows = np.repeat(conn, conn.shape[1], axis=1).ravel()
-    cols = np.tile(conn, (1, conn.shape[1])).ravel()
-    return sp.coo_matrix((ke.ravel(), (rows, cols)), shape=(n_dof, n_dof)).tocsc()
+    return _assemble_many([(conn, ke)], n_dof)
+
+
+def _assemble_many(parts: list[tuple[np.ndarray, np.ndarray]], n_dof: int) -> sp.csc_matrix:
+    """One sparse matrix from several (connectivity [E, n], element matrices [E, n, n]) groups."""
+    rows = np.concatenate([np.repeat(c, c.shape[1], axis=1).ravel() for c, _ in parts])
+    cols = np.concatenate([np.tile(c, (1, c.shape[1])).ravel() for c, _ in parts])
+    vals = np.concatenate([k.ravel() for _, k in parts])
+    return sp.csc_matrix((vals, (rows, cols)), shape=(n_dof, n_dof))
 
 
 def _dofs(nodes: np.ndarray) -> np.ndarray:
@@ -107,8 +114,7 @@ def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None
     ke = dkt_stiffness(exy, d)
     me = cubic_mass(exy, s.material.density * h)
     conn = _dofs(tri)
-    K = _assemble(conn, ke, n_dof)
-    M = _assemble(conn, me, n_dof)
+    k_parts, m_parts = [(conn, ke)], [(conn, me)]
     area, _, _ = triangle_geometry(exy)
     mass = float(np.sum(s.material.density * h * area))
     if beam is not None:
@@ -121,8 +127,8 @@ def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None
         rho = beam.material.density
         kb, mb = beam_element_matrices(pm.xy[bnodes], ei, gj, rho * a, 0.0, rho * a * (bh**2 + bw**2) / 12.0)
         bconn = _dofs(bnodes)
-        K = K + _assemble(bconn, kb, n_dof)
-        M = M + _assemble(bconn, mb, n_dof)
+        k_parts.append((bconn, kb))
+        m_parts.append((bconn, mb))
         mass += float(rho * a * np.sum(np.linalg.norm(pm.xy[bn[1:]] - pm.xy[bn[:-1]], axis=1)))
     if s.lumped_mass is not None and s.lumped_mass.mass > 0.0:
         lm = s.lumped_mass
@@ -137,13 +143,14 @@ def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None
                        length * (-(u**2) + u**3)])
         nvec = np.array([hv[0], hv[1] * tvec[0], hv[1] * tvec[1], hv[2], hv[3] * tvec[0], hv[3] * tvec[1]])
         idx = np.r_[3 * na : 3 * na + 3, 3 * nb : 3 * nb + 3]
-        M = M + _assemble(idx[None], (lm.mass * np.outer(nvec, nvec))[None], n_dof)
+        m_parts.append((idx[None], (lm.mass * np.outer(nvec, nvec))[None]))
         mass += float(lm.mass)
     root = pm.node(np.arange(pm.n_chord + 1), 0)
     clamped = np.zeros(n_dof, dtype=bool)
     clamped[_dofs(root[None]).ravel()] = True
     mesh = mesh if mesh is not None else standard_mesh(planform)
-    return FEModel(K=K.tocsc(), M=M.tocsc(), free=np.flatnonzero(~clamped), xy=pm.xy, mass_kg=mass,
+    K, M = _assemble_many(k_parts, n_dof), _assemble_many(m_parts, n_dof)
+    return FEModel(K=K, M=M, free=np.flatnonzero(~clamped), xy=pm.xy, mass_kg=mass,
                    interp=plate_interpolation(pm, planform, mesh.x, mesh.y), triangles=tri)
 
 
@@ -210,6 +217,25 @@ def build_model(
     return plate_model(wing.planform, s, mesh)
 
 
+def _stiffness_inverse(k: sp.spmatrix) -> LinearOperator | None:
+    """K^-1 as an operator via banded Cholesky (the structured node order keeps K narrow); None if not banded."""
+    c = k.tocoo()
+    c.sum_duplicates()
+    upper = c.col >= c.row
+    r, col, v = c.row[upper], c.col[upper], c.data[upper]
+    n = k.shape[0]
+    u = int((col - r).max(initial=0))
+    if u > n // 4:
+        return None
+    ab = np.zeros((u + 1, n))
+    ab[u + r - col, col] = v
+    try:
+        cb = cholesky_banded(ab, lower=False, check_finite=False)
+    except np.linalg.LinAlgError:
+        return None  # not positive definite: let eigsh factor K - sigma M itself
+    return LinearOperator((n, n), matvec=lambda x: cho_solve_banded((cb, False), x, check_finite=False), dtype=float)
+
+
 def solve_modes(model: FEModel, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     """Lowest eigenpairs: omega [k] (rad/s) and mass-normalized full-DOF modes [3P, k] (clamped DOFs zero)."""
     f = model.free
@@ -218,11 +244,9 @@ def solve_modes(model: FEModel, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     if not 1 <= n_modes < f.size:
         raise ValueError(f"n_modes: must be in [1, {f.size - 1}], got {n_modes}")
     if f.size <= 60:
-        from scipy.linalg import eigh
-
         lam, vec = eigh(kff.toarray(), mff.toarray(), subset_by_index=(0, n_modes - 1))
     else:
-        lam, vec = eigsh(kff, k=n_modes, M=mff, sigma=0.0, which="LM")
+        lam, vec = eigsh(kff, k=n_modes, M=mff, sigma=0.0, which="LM", OPinv=_stiffness_inverse(kff))
     order = np.argsort(lam)
     lam, vec = lam[order], vec[:, order]
     gm = np.einsum("ik,ik->k", vec, mff @ vec)
