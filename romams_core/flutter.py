@@ -307,9 +307,11 @@ class _Tracker:
 
 def _single_mode_unstable(
     m: _Model, cond: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], j: int, p_start: float, p_end: float,
-    weight: float, n: int = 8,
+    weight: float, n: int = 6,
 ) -> bool:
     """True when structural mode j alone (diagonal aero term only) has an unstable root at some p <= p_end."""
+    if m.k == 1:
+        return True
     sub = _Model(1, m.na, m.omega[[j]], m.zeta[[j]], m.c_ref, m.dt_star, m.coupling, m.a, m.b[:, [j]],
                  m.c[[j], :], m.d[[j]][:, [j]])
     tr = _Tracker(sub, cond, weight)
@@ -358,7 +360,7 @@ def flutter_analysis(
     v_max: float | None = None,
     q_max: float | None = None,
     altitude_range_m: tuple[float, float] = (0.0, 20_000.0),
-    n_points: int = 24,
+    n_points: int = 12,
     sdoff_share: float = 0.9,
     sdoff_q_factor: float = 1.1,
     track_weight: float = 0.5,
@@ -543,6 +545,8 @@ def flutter_analysis(
         else:
             h_chk = altitude_for_dynamic_pressure(q_f * sdoff_q_factor, mach, clamp=True)
             p_chk = max(h_hi - h_chk, p_f)
+        if i_cross == 0:  # unstable from the start: growth at p_f ~ 0 is too small to see, use the first point
+            p_chk = max(p_chk, float(grid[0]))
         single_unstable = _single_mode_unstable(model, cond, branch, p_start, p_chk, track_weight)
     sdoff = bool(energy_share >= sdoff_share and single_unstable)
 
