@@ -68,7 +68,7 @@ def wait_for(store: Store, job_id: str, timeout_s: float, poll_s: float = 0.01) 
         if status is None or time.monotonic() > deadline:
             return None
         time.sleep(delay)
-        delay = min(delay * 1.5, 0.2)
+        delay = min(delay * 1.5, 0.05)
 
 
 class _Heartbeat:

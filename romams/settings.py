@@ -41,6 +41,7 @@ class Settings(BaseSettings):
     upload_max_bytes: int = Field(default=200_000_000, ge=1, description="largest accepted Nastran upload")
     heartbeat_s: float = Field(default=5.0, gt=0, description="how often a running task touches its job row")
     job_stale_s: float = Field(default=60.0, gt=0, description="a running job untouched this long is re-sent")
+    broker_poll_s: float = Field(default=0.05, gt=0, description="poll period of the server-less SQLite broker")
     broker_visibility_timeout_s: int = Field(default=3600, ge=1, description="Redis: unacked message redelivery")
     worker_concurrency: int = Field(default=1, ge=1, description="processes of the embedded/child worker")
     host: str = Field(default="127.0.0.1", description="bind address of `romams serve`")

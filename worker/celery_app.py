@@ -27,7 +27,11 @@ def celery_config(settings: Settings) -> dict[str, Any]:
     transport: dict[str, Any] = {}
     if broker.startswith("sqla+"):
         settings.data_dir.mkdir(parents=True, exist_ok=True)
-        transport = {"connect_args": {"timeout": 60}}  # passed to create_engine: SQLite busy timeout
+        # kombu's SQLAlchemy transport polls (its options all go to create_engine: only the busy timeout here)
+        import kombu.transport.sqlalchemy as sqla_transport
+
+        sqla_transport.Transport.polling_interval = settings.broker_poll_s
+        transport = {"connect_args": {"timeout": 60}}
     elif broker.startswith(("redis", "rediss")):
         transport = {"visibility_timeout": settings.broker_visibility_timeout_s}
     return {

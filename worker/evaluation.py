@@ -18,7 +18,7 @@ from romams.serialize import to_jsonable
 from romams.store import content_hash
 from worker.cache import LruCache
 from worker.celery_app import app
-from worker.tasks import _run, _settings, load_basis, load_mesh, load_rom, load_wing, store
+from worker.tasks import OBJECTS, _run, _settings, load_basis, load_mesh, load_rom, load_wing, store
 
 RESULTS = LruCache(_settings.result_cache_size)  # content hash -> summary dict of one design
 
@@ -44,56 +44,73 @@ def structure_modal(wing_id: int, design: list[float] | None, modes_id: int | No
     return modal_analysis(wing, design=None if design is None else np.asarray(design, dtype=float), n_modes=n_modes)
 
 
+def _roms(rom_ids: list[list[float]]) -> dict[float, Any]:
+    """{mach: TrainedRom} of the (mach, rom_id) pairs (cached)."""
+    return {float(m): load_rom(int(rid)) for m, rid in rom_ids}
+
+
+def baseline_evaluation(wing_id: int, basis_id: int, rom_ids: list[list[float]]) -> Any:
+    """StructureEvaluation of the wing's baseline structure on these ROMs (cached), or None without a baseline."""
+    from romams_core.evaluate import evaluate_structure
+
+    wing = load_wing(wing_id)
+    if not getattr(wing, "has_baseline", False):
+        return None
+
+    def load() -> Any:
+        basis = load_basis(basis_id)
+        modal = structure_modal(wing_id, None, None, int(basis.n_modes))
+        return evaluate_structure(modal, basis.shapes, _roms(rom_ids), mac_threshold=float(basis.mac_threshold))
+
+    key = ("baseline", int(wing_id), int(basis_id), tuple((float(m), int(r)) for m, r in rom_ids))
+    return OBJECTS.get_or_load(key, load)
+
+
 def evaluate(wing_id: int, basis_id: int, rom_ids: list[list[float]], design: list[float] | None,
              modes_id: int | None = None) -> tuple[dict[str, Any], Any]:
-    """Evaluate one structure at the given (mach, rom_id) pairs -> (API summary, full core result)."""
+    """Evaluate one structure at the given (mach, rom_id) pairs -> (API summary, StructureEvaluation).
+
+    The envelope is compared with the wing's baseline evaluated on the same ROMs (when it has one).
+    """
     from romams_core.evaluate import evaluate_structure
 
     basis = load_basis(basis_id)
-    roms = [load_rom(int(rid)) for _, rid in rom_ids]
     modal = structure_modal(wing_id, design, modes_id, int(basis.n_modes))
-    wing = load_wing(wing_id)
-    result = evaluate_structure(modal, basis.shapes, roms, mac_threshold=float(basis.mac_threshold),
-                                **_baseline_kwargs(wing_id, basis_id, rom_ids, wing))
-    return summarize(result, modal, external=modes_id is not None), result
+    base = baseline_evaluation(wing_id, basis_id, rom_ids)
+    result = evaluate_structure(modal, basis.shapes, _roms(rom_ids), mac_threshold=float(basis.mac_threshold),
+                                benchmark=None if base is None else base.envelope)
+    return summarize(result, external=modes_id is not None), result
 
 
-def _baseline_kwargs(wing_id: int, basis_id: int, rom_ids: list[list[float]], wing: Any) -> dict[str, Any]:
-    """Hook for evaluate_structure's baseline arguments (the envelope is compared with the wing's baseline)."""
-    return {}
-
-
-def summarize(result: Any, modal: Any, external: bool = False) -> dict[str, Any]:
-    """The API's JSON view of an evaluation: mass, frequencies, MACs, per-Mach flutter points, envelope flag."""
+def summarize(result: Any, external: bool = False) -> dict[str, Any]:
+    """The API's JSON view of a StructureEvaluation: mass, frequencies, MACs, per-Mach flutter points, envelope."""
+    env = result.envelope
+    env_machs = np.asarray(env.mach, dtype=float)
     per_mach = []
-    for r in getattr(result, "results", []):
+    for r in result.flutter:
+        idx = np.flatnonzero(np.isclose(env_machs, float(r.mach), rtol=0, atol=1e-9))
         per_mach.append({
             "mach": _f(r.mach), "v_flutter_m_s": _f(r.v_flutter_m_s), "omega_flutter_rad_s": _f(r.omega_flutter_rad_s),
             "q_flutter_pa": _f(r.q_flutter_pa), "sdoff": bool(r.sdoff), "flutter_mode": r.flutter_mode,
-            "flutter_found": bool(getattr(r, "flutter_found", r.v_flutter_m_s is not None)),
-            "safe_altitude_m": _f(_safe_altitude(result, r.mach)), "sweep": getattr(r, "sweep", None),
-            "message": getattr(r, "message", ""),
+            "flutter_found": bool(r.flutter_found), "sweep": r.sweep, "message": r.message,
+            "safe_altitude_m": _f(env.safe_altitude_m[idx[0]]) if idx.size else None,
+            "envelope_status": env.status[idx[0]] if idx.size else None,
         })
-    mass = getattr(modal, "mass_kg", None)
+    mass = _f(result.mass_kg)
+    comp = result.comparison
     return to_jsonable({
-        "mass_kg": None if external and not (mass and math.isfinite(mass) and mass > 0) else _f(mass),
-        "frequencies_hz": np.asarray(modal.frequencies_hz, dtype=float),
-        "mac": np.asarray(getattr(result, "mac", []), dtype=float),
-        "poor_fit": bool(getattr(result, "poor_fit", False)),
+        "mass_kg": None if external and not (mass and mass > 0) else mass,
+        "frequencies_hz": np.asarray(result.frequencies_hz, dtype=float),
+        "mac": np.asarray(result.mac, dtype=float),
+        "min_mac": _f(result.min_mac),
+        "mac_ok": bool(result.mac_ok),
+        "sdoff": bool(result.sdoff),
         "results": per_mach,
-        "envelope_ok": getattr(result, "envelope_ok", None),
+        "envelope_ok": None if comp is None else bool(comp.envelope_ok),
+        "envelope_margin_m": None if comp is None else np.asarray(comp.margin_m, dtype=float),
+        "constraints_ok": bool(result.constraints_ok),
+        "message": result.message,
     })
-
-
-def _safe_altitude(result: Any, mach: float) -> float | None:
-    """Safe altitude of one Mach from the result's envelope (None where none)."""
-    env = getattr(result, "envelope", None)
-    if env is None:
-        return None
-    machs = np.asarray(getattr(env, "machs", []), dtype=float)
-    alts = np.asarray(getattr(env, "safe_altitude_m", []), dtype=float)
-    idx = np.flatnonzero(np.isclose(machs, float(mach), rtol=0, atol=1e-9))
-    return float(alts[idx[0]]) if idx.size else None
 
 
 @app.task(name="romams.evaluation.flutter", acks_late=True, time_limit=_settings.evaluation_time_limit_s)

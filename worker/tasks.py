@@ -180,7 +180,7 @@ def make_solver(name: str) -> Any:
 @app.task(name="romams.training.rom", acks_late=True, time_limit=_settings.training_time_limit_s)
 def training_job(job_id: str) -> None:
     """Train the aerodynamic ROM of one Mach number on the basis shapes and store it."""
-    from romams_core.training import train_rom
+    from romams_core.training import TrainingError, train_rom
 
     def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
         p = dict(job["params"])
@@ -189,8 +189,11 @@ def training_job(job_id: str) -> None:
         mesh = load_mesh(wing_id)
         options = dict(p.get("options") or {})
         progress(0.0, f"training M = {p['mach']:.3f} with {p['solver']} on {basis.n_basis} basis shapes")
-        rom = train_rom(mesh, basis.shapes, float(p["mach"]), make_solver(p["solver"]), na=int(p["na"]),
-                        nb=int(p["nb"]), progress=progress, **options)
+        try:
+            rom = train_rom(mesh, basis.shapes, float(p["mach"]), make_solver(p["solver"]), na=int(p["na"]),
+                            nb=int(p["nb"]), progress=progress, **options)
+        except TrainingError as exc:
+            raise JobFailed(f"training failed: {exc}") from exc
         rid = store().save_rom(wing_id, basis_id, rom, p["identity"], job_id=job_id)
         nrmse = np.atleast_1d(np.asarray(getattr(rom, "validation_nrmse", np.nan), dtype=float))
         return {"rom_id": rid, "mach": float(p["mach"]), "validation_nrmse": nrmse.tolist()}

@@ -188,7 +188,7 @@ def get_evaluation(evaluation_id: int, svc: Service = Depends(service)) -> dict[
 
 def flutter_results(result: Any) -> list[Any]:
     """Per-Mach FlutterResult objects of a stored evaluation result."""
-    return list(getattr(result, "results", []) or [])
+    return list(getattr(result, "flutter", []) or [])
 
 
 @router.get("/evaluations/{evaluation_id}/vg")
@@ -209,12 +209,12 @@ def evaluation_plot(evaluation_id: int, fmt: Literal["png", "svg"],
                     kind: Literal["vg", "envelope"] = "vg", svc: Service = Depends(service)) -> Response:
     """V-g / V-omega plot, or the envelope of this design vs the wing's baseline, as PNG or SVG."""
     ev = _evaluation_or_404(svc, evaluation_id, full=True)
-    from romams.plots import service_plots
+    from api import plots
 
     if kind == "vg":
-        fig = service_plots.vg_figure(flutter_results(ev["result"]))
+        fig = plots.vg_figure(flutter_results(ev["result"]))
     else:
-        fig = service_plots.envelope_figure(ev["result"], baseline_summary(svc, ev))
+        fig = plots.envelope_figure(ev["result"], baseline_summary(svc, ev))
     return figure_response(fig, fmt)
 
 
@@ -230,9 +230,6 @@ def baseline_summary(svc: Service, ev: dict[str, Any]) -> dict[str, Any] | None:
 
 def figure_response(fig: Any, fmt: str) -> Response:
     """Render a matplotlib figure to a PNG/SVG response."""
-    import matplotlib.pyplot as plt
-
     buf = io.BytesIO()
     fig.savefig(buf, format=fmt, dpi=100, bbox_inches="tight")
-    plt.close(fig)
     return Response(buf.getvalue(), media_type="image/png" if fmt == "png" else "image/svg+xml")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
-from typing import Any
+from typing import Any, Literal
 
 from fastapi import APIRouter, Depends, Response
 
@@ -178,3 +178,46 @@ def list_roms(wing: str, basis_id: int | None = None, svc: Service = Depends(ser
     """Trained ROMs of a wing: Mach, solver settings, validation fit error."""
     wid, _ = wing_or_404(svc, wing)
     return svc.store.list_roms(wid, basis_id)
+
+
+def _basis_or_404(svc: Service, basis_id: int) -> Any:
+    """Stored Basis or a 404 problem."""
+    try:
+        return svc.store.load_basis(basis_id)
+    except KeyError as exc:
+        raise Problem(404, f"basis_id: no basis {basis_id}", "basis_id") from exc
+
+
+def _basis_wing(svc: Service, basis_id: int) -> Any:
+    """WingDefinition the basis belongs to."""
+    from romams.db import BasisRow
+
+    with svc.store.session() as s:
+        row = s.get(BasisRow, basis_id)
+        wid = None if row is None else row.wing_id
+    if wid is None:
+        raise Problem(404, f"basis_id: no basis {basis_id}", "basis_id")
+    return wing_or_404(svc, str(wid))[1]
+
+
+@router.get("/bases/{basis_id}/shapes.{fmt}")
+def basis_shapes_plot(basis_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
+    """Plot of the basis shapes on the planform (PNG or SVG)."""
+    from api.routes.flutter import figure_response
+    from romams.plots.basis import plot_basis_shapes
+    from romams_core.mesh import standard_mesh
+
+    basis = _basis_or_404(svc, basis_id)
+    mesh = standard_mesh(_basis_wing(svc, basis_id).planform)
+    return figure_response(plot_basis_shapes(mesh, basis.shapes, basis.singular_values), fmt)
+
+
+@router.get("/bases/{basis_id}/mac.{fmt}")
+def basis_mac_plot(basis_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
+    """Worst snapshot MAC against the number of basis shapes (PNG or SVG)."""
+    from api.routes.flutter import figure_response
+    from romams.plots.basis import plot_mac_vs_basis_size
+
+    b = _basis_or_404(svc, basis_id)
+    fig = plot_mac_vs_basis_size(b.min_mac_by_m, b.mac_threshold, b.n_basis, labels=["worst sample mode"])
+    return figure_response(fig, fmt)

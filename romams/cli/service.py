@@ -1,0 +1,73 @@
+"""``romams serve`` (API + an embedded child worker) and ``romams worker`` (a distributed worker)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+
+import typer
+
+from romams.cli.app import app
+
+
+def worker_command(queues: str, concurrency: int, loglevel: str, hostname: str | None = None) -> list[str]:
+    """argv of a Celery worker process for the service's app."""
+    cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app", "worker", "-Q", queues,
+           "--concurrency", str(concurrency), "--loglevel", loglevel, "--without-gossip", "--without-mingle"]
+    if hostname:
+        cmd += ["--hostname", hostname]
+    return cmd
+
+
+@app.command()
+def serve(
+    host: str = typer.Option(None, help="bind address (default ROMAMS_HOST or 127.0.0.1)"),
+    port: int = typer.Option(None, help="port (default ROMAMS_PORT or 8000)"),
+    worker: bool = typer.Option(True, help="start an embedded child Celery worker"),
+    concurrency: int = typer.Option(None, help="processes of the embedded worker (default ROMAMS_WORKER_CONCURRENCY)"),
+    loglevel: str = typer.Option("warning", help="log level of uvicorn and the worker"),
+) -> None:
+    """Run the HTTP API and dashboard; by default also a child worker on the same (embedded) database and broker."""
+    import uvicorn
+
+    from romams.settings import get_settings
+    from romams.store import open_store
+
+    settings = get_settings()
+    open_store(settings)  # creates the data dir and migrates SQLite before the worker starts
+    child = None
+    if worker:
+        child = subprocess.Popen(worker_command("training,evaluation", concurrency or settings.worker_concurrency,
+                                                loglevel, "embedded@%h"), env=dict(os.environ))
+        typer.echo(f"embedded worker pid {child.pid} (broker {settings.broker.split('://')[0]})", err=True)
+    typer.echo(f"romams API on http://{host or settings.host}:{port or settings.port}/dashboard "
+               f"(database {settings.db_url.split(':')[0]})", err=True)
+    try:
+        uvicorn.run("api.app:app", host=host or settings.host, port=port or settings.port, log_level=loglevel)
+    finally:
+        if child is not None and child.poll() is None:
+            child.send_signal(signal.SIGTERM)
+            try:
+                child.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                child.kill()
+
+
+@app.command("worker")
+def worker_cmd(
+    queues: str = typer.Option("training,evaluation", help="comma-separated queues to consume"),
+    concurrency: int = typer.Option(None, help="worker processes (default ROMAMS_WORKER_CONCURRENCY)"),
+    loglevel: str = typer.Option("info", help="Celery log level"),
+    hostname: str = typer.Option(None, help="Celery node name (default celery@<host>)"),
+) -> None:
+    """Run a Celery worker of the service (broker ROMAMS_BROKER_URL, database ROMAMS_DATABASE_URL)."""
+    from romams.settings import get_settings
+
+    settings = get_settings()
+    bad = set(q.strip() for q in queues.split(",")) - {"training", "evaluation"}
+    if bad:
+        raise typer.BadParameter(f"unknown queue(s) {sorted(bad)}; known: training, evaluation", param_hint="--queues")
+    cmd = worker_command(queues, concurrency or settings.worker_concurrency, loglevel, hostname)
+    os.execv(cmd[0], cmd)
