@@ -22,7 +22,7 @@ import numpy as np
 
 from romams_core.mesh import Planform
 
-THICKNESS_FORMS = ("constant", "naca4")
+THICKNESS_FORMS = ("constant", "naca4", "naca65a004")
 
 
 def _check_finite(name: str, value: Any, lower: float | None = None, strict: bool = True) -> None:
@@ -160,9 +160,10 @@ class LumpedMass:
 class PlateStructure:
     """Thin plate (DKT elements) with optional stiffening beam and leading-edge lumped mass.
 
-    Thickness (m): ``thickness_form == "constant"``: ``thickness``; ``"naca4"``: the symmetric NACA
-    4-digit thickness form scaled to ``thickness_to_chord * chord(y)`` at its maximum, floored at
-    ``min_thickness_fraction`` of that maximum. Both are multiplied by ``thickness_ratio``.
+    Thickness (m): ``thickness_form == "constant"``: ``thickness``; ``"naca4"`` (symmetric NACA
+    4-digit form) or ``"naca65a004"`` (tabulated NACA 65A004 form): the form scaled to
+    ``thickness_to_chord * chord(y)`` at its maximum, floored at ``min_thickness_fraction`` of it.
+    Either thickness is multiplied by ``thickness_ratio``.
     ``fe_n_chord`` x ``fe_n_span``: FE mesh quadrilateral cells (each split into two triangles).
     """
 
@@ -497,11 +498,35 @@ def goland() -> WingDefinition:
     )
 
 
-TEMPLATES = {"cropped-delta": cropped_delta, "goland": goland}
+def agard445() -> WingDefinition:
+    """AGARD 445.6 weakened model 3: equivalent orthotropic plate with the NACA 65A004 thickness form.
+
+    Axis 1 (E1) along the 45 deg quarter-chord line; density 378 kg/m^3, tuned from the commonly
+    used 382 kg/m^3 so that mode 1 matches Yates' 9.60 Hz (docs/structure.md). No design variables.
+    """
+    cr, ct, span = 0.5587, 0.3682, 0.762
+    sweep_le = math.atan(math.tan(math.radians(45.0)) + (cr - ct) / (4.0 * span))
+    planform = Planform(root_chord=cr, tip_chord=ct, semispan=span, sweep_le=sweep_le, n_chord=10, n_span=14)
+    material = PlateMaterial(E1=3.151e9, E2=0.4162e9, G12=0.4392e9, nu12=0.31, density=AGARD_DENSITY,
+                             orientation=math.radians(45.0))
+    plate = PlateStructure(material=material, thickness_form="naca65a004", thickness_to_chord=0.03994,
+                           min_thickness_fraction=0.02, fe_n_chord=16, fe_n_span=20)
+    return WingDefinition(
+        name="agard-445.6",
+        planform=planform,
+        structure=plate,
+        description="AGARD 445.6 weakened wing 3 as an equivalent orthotropic plate (E1 along the quarter-chord "
+        "line) with NACA 65A004 thickness; density tuned to the first mode.",
+    )
+
+
+AGARD_DENSITY = 378.0
+
+TEMPLATES = {"cropped-delta": cropped_delta, "goland": goland, "agard-445.6": agard445}
 
 
 def template(name: str) -> WingDefinition:
-    """A built-in wing by name ("cropped-delta", "goland")."""
+    """A built-in wing by name ("cropped-delta", "goland", "agard-445.6")."""
     try:
         return TEMPLATES[name]()
     except KeyError:

@@ -62,3 +62,16 @@ def test_airfoil_thickness_form_mass_and_scaling():
     assert math.isclose(naca4_thickness_form(np.linspace(0.0, 1.0, 20001)).max(), 1.0, rel_tol=1e-6)
     r2 = modal_analysis(WingDefinition("agard-like", pf, dataclasses.replace(s, thickness_ratio=2.0)), n_modes=3)
     np.testing.assert_allclose(r2.frequencies_hz, 2.0 * r.frequencies_hz, rtol=1e-9)
+
+
+def test_agard_445_template_against_yates_modes():
+    # Yates' calculated modes 9.60, 38.17, 48.35, 91.54, 118.11 Hz; density tuned to mode 1 (docs/structure.md).
+    # The equivalent-plate idealization (thickness form, E1 along the quarter-chord line) gives modes 2-5
+    # 4-7% high; the test pins mode 1 to 1% and the others to 7%.
+    from romams_core.wing import template
+
+    r = modal_analysis(template("agard-445.6"), n_modes=5)
+    yates = np.array([9.60, 38.17, 48.35, 91.54, 118.11])
+    assert math.isclose(r.frequencies_hz[0], yates[0], rel_tol=0.01)
+    np.testing.assert_allclose(r.frequencies_hz, yates, rtol=0.07)
+    assert np.all(r.frequencies_hz[1:] > yates[1:])  # the plate idealization is stiff in the higher modes

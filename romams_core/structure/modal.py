@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.interpolate import PchipInterpolator
 from scipy.linalg import cho_solve_banded, cholesky_banded, eigh
 from scipy.sparse.linalg import LinearOperator, eigsh
 
@@ -88,6 +89,23 @@ def naca4_thickness_form(xi: np.ndarray) -> np.ndarray:
     return poly / 0.10002879  # maximum of the polynomial (at xi = 0.29983)
 
 
+# NACA 65A004 half thickness (fraction of chord) at chord fractions (reference/agard445.md)
+_NACA65A004_X = np.array([0, 0.5, 0.75, 1.25, 2.5, 5, 7.5, 10, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 65, 70, 75, 80,
+                          85, 90, 95, 100]) / 100.0
+_NACA65A004_Z = np.array([0, 0.304, 0.368, 0.469, 0.647, 0.875, 1.059, 1.213, 1.459, 1.645, 1.789, 1.892, 1.962,
+                          1.997, 1.996, 1.954, 1.868, 1.743, 1.586, 1.402, 1.195, 0.967, 0.729, 0.49, 0.25, 0]) / 100.0
+_NACA65A004 = PchipInterpolator(_NACA65A004_X, _NACA65A004_Z / _NACA65A004_Z.max())
+
+
+def thickness_form(name: str, xi: np.ndarray) -> np.ndarray:
+    """Airfoil thickness form (maximum 1) named ``name`` ("naca4" or "naca65a004") at chord fractions xi."""
+    if name == "naca4":
+        return naca4_thickness_form(xi)
+    if name == "naca65a004":
+        return np.asarray(_NACA65A004(np.clip(np.asarray(xi, dtype=float), 0.0, 1.0)), dtype=float)
+    raise ValueError(f"structure.thickness_form: no airfoil form {name!r}")
+
+
 def plate_thickness(planform: Planform, s: PlateStructure, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Plate thickness (m) at points x, y (m)."""
     if s.thickness_form == "constant":
@@ -95,7 +113,7 @@ def plate_thickness(planform: Planform, s: PlateStructure, x: np.ndarray, y: np.
     else:
         xi, _ = planform.to_xi_eta(x, y)
         tmax = s.thickness_to_chord * planform.chord(y)
-        t = tmax * np.maximum(naca4_thickness_form(xi), s.min_thickness_fraction)
+        t = tmax * np.maximum(thickness_form(s.thickness_form, xi), s.min_thickness_fraction)
     return t * s.thickness_ratio
 
 
