@@ -259,41 +259,52 @@ def bdf2(x: np.ndarray, dt: float) -> np.ndarray:
     return (1.5 * x - 2.0 * x1 + 0.5 * x2) / dt
 
 
-def march(system: UvlmSystem, wash: np.ndarray, progress: ProgressFn | None = None) -> np.ndarray:
+def _window_product(mat: np.ndarray, hist: np.ndarray, nw: int, n_t: int) -> np.ndarray:
+    """[T, r, B] = mat [r, nw*ns] times the sliding windows hist[n : n + nw] (time-ordered), chunked GEMMs."""
+    ns, n_b = hist.shape[1], hist.shape[2]
+    win = sliding_window_view(hist[: n_t + nw - 1], nw, axis=0)  # [T, ns, B, nw], window n = hist[n : n + nw]
+    out = np.empty((n_t, mat.shape[0], n_b))
+    blk = max(1, 2_000_000 // max(1, nw * ns * n_b))
+    for n0 in range(0, n_t, blk):  # memory-bounded chunks of time steps
+        w = win[n0 : n0 + blk].transpose(3, 1, 0, 2).reshape(nw * ns, -1)  # rows (s, j), cols (t, b)
+        out[n0 : n0 + blk] = (mat @ w).reshape(mat.shape[0], -1, n_b).transpose(1, 0, 2)
+    return out
+
+
+def march(
+    system: UvlmSystem,
+    wash: np.ndarray,
+    progress: ProgressFn | None = None,
+    outputs: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """Time-march ring strengths G [T, K, B] (nondimensional) for normal-wash histories wash [T, K, B].
 
     Step n: wake row 0 holds G_TE(n-1), row r holds G_TE(n-1-r); A0 G(n) = w(n) - AW Gw(n). The only
-    sequential part is the recursion on the trailing-edge strengths; all the rest is batched.
+    sequential part is the recursion on the trailing-edge strengths; all the rest is batched GEMMs. With
+    ``outputs`` = (C_g [m, K], C_d [m, K]) return y = C_g G + C_d BDF2(G) [T, m, B] instead of G.
     """
     n_t, k, n_b = wash.shape
     ns, nw = system.n_span, system.n_wake
     # quasi-steady part for all steps at once, and the wake-to-bound operator P = A0^-1 AW
     gq = sla.lu_solve(system.aic_lu, wash.transpose(1, 0, 2).reshape(k, n_t * n_b)).reshape(k, n_t, n_b)
+    gq = gq.transpose(1, 0, 2)  # [T, K, B]
     p = sla.lu_solve(system.aic_lu, system.aic_wake.reshape(k, nw * ns)).reshape(k, nw, ns)
-    p_rev = p[:, ::-1, :].reshape(k, nw * ns)  # column block s multiplies G_TE(n - nw + s)
+    p_rev = np.ascontiguousarray(p[:, ::-1, :].reshape(k, nw * ns))  # column block s multiplies G_TE(n - nw + s)
     p_te = p_rev[system.te]
     hist = np.zeros((n_t + nw, ns, n_b))
-    gq_te = gq[system.te].transpose(1, 0, 2)  # [T, ns, B]
+    gq_te = np.ascontiguousarray(gq[:, system.te, :])  # [T, ns, B]
     every = max(1, n_t // 20)
-    for n in range(n_t):
+    for n in range(n_t):  # the sequential trailing-edge recursion
         hist[n + nw] = gq_te[n] - p_te @ hist[n : n + nw].reshape(nw * ns, n_b)
         if progress is not None and n % every == 0:
             progress(0.9 * n / n_t, f"UVLM time march {n}/{n_t}")
-    # full strengths: G(n) = Gq(n) - P_rev @ window(n), chunked over time
-    out = np.empty((n_t, k, n_b))
-    win = sliding_window_view(hist[:-1], nw, axis=0)  # [T, ns, B, nw] window starting at n
-    blk = max(1, 4_000_000 // max(1, nw * ns * n_b))
-    for n0 in range(0, n_t, blk):
-        w = win[n0 : n0 + blk].transpose(0, 3, 1, 2).reshape(-1, nw * ns, n_b)  # [b, nw*ns, B]
-        out[n0 : n0 + blk] = gq[:, n0 : n0 + blk, :].transpose(1, 0, 2) - np.einsum("kq,tqb->tkb", p_rev, w)
-    return out
-
-
-def _gac_time(system: UvlmSystem, shapes: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """GAC [T, m, B] (m^3) from ring strengths G [T, K, B] (BDF2 dG/dt*)."""
-    c_g, c_d = system.output_matrices(shapes)
-    gdot = bdf2(g, system.dt_star)
-    return np.einsum("mk,tkb->tmb", c_g, g) + np.einsum("mk,tkb->tmb", c_d, gdot)
+    if outputs is None:
+        return gq - _window_product(p_rev, hist, nw, n_t)
+    c_g, c_d = outputs
+    y = np.matmul(c_g, gq) + np.matmul(c_d, bdf2(gq, system.dt_star))
+    y -= _window_product(c_g @ p_rev, hist, nw, n_t)
+    y -= _window_product(c_d @ p_rev, bdf2(hist, system.dt_star), nw, n_t)
+    return y
 
 
 def _z_wake(system: UvlmSystem, z: complex) -> np.ndarray:
@@ -454,9 +465,8 @@ class UvlmSolver:
             progress(0.0, "assembling UVLM influence coefficients")
         system = self.build(mesh, mach, dt_star)
         w_d, w_v = system.wash_matrices(shapes)
-        wash = np.einsum("km,tmb->tkb", w_d, sig) + np.einsum("km,tmb->tkb", w_v, bdf2(sig, system.dt_star))
-        g = march(system, wash, progress)
-        gac = _gac_time(system, shapes, g)
+        wash = np.matmul(w_d, sig) + np.matmul(w_v, bdf2(sig, system.dt_star))  # [T, K, B]
+        gac = march(system, wash, progress, outputs=system.output_matrices(shapes))
         if progress is not None:
             progress(1.0, "UVLM done")
         return gac if batched else gac[:, :, 0]

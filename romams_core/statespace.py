@@ -1,0 +1,277 @@
+"""Discrete state-space models of the aerodynamics in nondimensional time t* (step dt_star).
+
+x(n+1) = A x(n) + B u(n),  f(n) = C x(n) + D u(n); u generalized displacements, f GAC (m^3).
+Tools: ARX realization, stability, balanced truncation, basis -> real modal coordinates, Tustin d2c.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from romams_core.arx import ArxModel
+
+__all__ = [
+    "DiscreteSS",
+    "ContinuousSS",
+    "arx_to_ss",
+    "balanced_truncation",
+    "band_gramians",
+    "balanced_models",
+    "to_modal",
+    "d2c_tustin",
+    "spectral_radius",
+    "reflect_unstable_poles",
+]
+
+
+@dataclass
+class DiscreteSS:
+    """Discrete-time LTI model in t* (step dt_star): matrices A [n, n], B [n, m], C [p, n], D [p, m]."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    dt_star: float
+
+    @property
+    def n_states(self) -> int:
+        """State dimension n."""
+        return int(self.A.shape[0])
+
+    @property
+    def n_inputs(self) -> int:
+        """Input dimension m."""
+        return int(self.B.shape[1])
+
+    @property
+    def n_outputs(self) -> int:
+        """Output dimension p."""
+        return int(self.C.shape[0])
+
+    def spectral_radius(self) -> float:
+        """Largest pole magnitude |z| (0 for a static model)."""
+        return spectral_radius(self.A)
+
+    def is_stable(self, margin: float = 0.0) -> bool:
+        """True when every pole satisfies |z| < 1 - margin."""
+        return self.spectral_radius() < 1.0 - margin
+
+    def simulate(self, u: np.ndarray, x0: np.ndarray | None = None) -> np.ndarray:
+        """Output [T, p] for inputs u [T, m] from state x0 (default rest)."""
+        u = np.asarray(u, dtype=float)
+        x = np.zeros(self.n_states) if x0 is None else np.asarray(x0, dtype=float).copy()
+        bu = u @ self.B.T
+        xs = np.empty((u.shape[0], self.n_states))
+        for t in range(u.shape[0]):  # sequential recursion
+            xs[t] = x
+            x = self.A @ x + bu[t]
+        return xs @ self.C.T + u @ self.D.T
+
+    def freqresp(self, k_values: np.ndarray) -> np.ndarray:
+        """Transfer matrix [nk, p, m] at reduced frequencies k (on the semichord: z = exp(i 2 k dt_star))."""
+        k_values = np.atleast_1d(np.asarray(k_values, dtype=float))
+        out = np.empty((k_values.size, self.n_outputs, self.n_inputs), dtype=complex)
+        eye = np.eye(self.n_states)
+        for n, k in enumerate(k_values):  # a handful of frequencies
+            z = np.exp(2j * k * self.dt_star)
+            out[n] = self.C @ np.linalg.solve(z * eye - self.A, self.B) + self.D if self.n_states else self.D
+        return out
+
+
+@dataclass
+class ContinuousSS:
+    """Continuous-time LTI model with derivatives in t* (d/dt = (V / c_ref) d/dt*): A, B, C, D."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+
+    def freqresp(self, k_values: np.ndarray) -> np.ndarray:
+        """Transfer matrix [nk, p, m] at reduced frequencies k on the semichord (s* = i 2 k)."""
+        k_values = np.atleast_1d(np.asarray(k_values, dtype=float))
+        eye = np.eye(self.A.shape[0])
+        return np.stack([self.C @ np.linalg.solve(2j * k * eye - self.A, self.B) + self.D for k in k_values])
+
+
+def spectral_radius(a: np.ndarray) -> float:
+    """max |eig(a)| (0 for an empty matrix)."""
+    return float(np.max(np.abs(np.linalg.eigvals(a)))) if a.size else 0.0
+
+
+def arx_to_ss(model: ArxModel, dt_star: float | None = None) -> DiscreteSS:
+    """Realize an ARX model: state [f(n-1..n-na); u(n-1..n-nb+1)], C = [A_1..A_na, B_1..B_nb-1], D = B_0."""
+    na, nb = model.na, model.nb
+    p, m = model.b.shape[1], model.b.shape[2]
+    nf, nu = na * p, (nb - 1) * m
+    n = nf + nu
+    c = np.hstack([*(model.a[i] for i in range(na)), *(model.b[i] for i in range(1, nb))]) if n else np.zeros((p, 0))
+    d = model.b[0].copy()
+    a = np.zeros((n, n))
+    b = np.zeros((n, m))
+    if na:
+        a[:p, :] = c  # f(n) = C x + D u goes into the first f slot
+        b[:p, :] = d
+        a[p:nf, : nf - p] = np.eye(nf - p)
+    if nb > 1:
+        b[nf : nf + m, :] = np.eye(m)
+        a[nf + m :, nf : n - m] = np.eye(nu - m)
+    dt = model.dt_star if dt_star is None else dt_star
+    return DiscreteSS(A=a, B=b, C=c, D=d, dt_star=float(dt))
+
+
+def _psd_sqrt(w: np.ndarray) -> np.ndarray:
+    """Square-root factor L with L L^T = w for a symmetric positive semidefinite matrix (eigen-based)."""
+    w = 0.5 * (w + w.T)
+    evals, evecs = np.linalg.eigh(w)
+    return evecs * np.sqrt(np.clip(evals, 0.0, None))
+
+
+def band_gramians(ss: DiscreteSS, k_band: float, n_quad: int = 128) -> tuple[np.ndarray, np.ndarray]:
+    """Frequency-limited controllability and observability gramians over reduced frequencies |k| <= k_band.
+
+    W_c = (1/2pi) int_-theta_max^theta_max X X^H dtheta with X = (e^{i theta} I - A)^-1 B, theta = 2 k dt_star,
+    and W_o likewise with (e^{i theta} I - A)^-H C^H; Gauss-Legendre quadrature (``n_quad`` points) with
+    triangular solves in the complex Schur basis of A.
+    """
+    if not (math.isfinite(k_band) and k_band > 0):
+        raise ValueError(f"k_band: must be a finite number > 0, got {k_band!r}")
+    theta_max = min(math.pi, 2.0 * k_band * ss.dt_star)
+    x, w = np.polynomial.legendre.leggauss(int(n_quad))
+    theta = theta_max * x  # nodes on [-theta_max, theta_max]
+    w = theta_max * w / (2.0 * math.pi)
+    z = np.exp(1j * theta)
+    n = ss.n_states
+    # complex Schur form A = Q T Q^H: each node needs only triangular solves (A may be defective, as ARX is)
+    t, q = sla.schur(ss.A.astype(complex), output="complex")
+    bt = q.conj().T @ ss.B
+    ct_h = (ss.C @ q).conj().T
+    eye = np.eye(n)
+    wc = np.zeros((n, n), dtype=complex)
+    wo = np.zeros((n, n), dtype=complex)
+    for zq, wt in zip(z, w, strict=True):  # quadrature nodes
+        m = zq * eye - t
+        xb = sla.solve_triangular(m, bt)
+        yc = sla.solve_triangular(m, ct_h, trans=2)
+        wc += wt * (xb @ xb.conj().T)
+        wo += wt * (yc @ yc.conj().T)
+    wc = (q @ wc @ q.conj().T).real
+    wo = (q @ wo @ q.conj().T).real
+    return 0.5 * (wc + wc.T), 0.5 * (wo + wo.T)
+
+
+def balanced_truncation(
+    ss: DiscreteSS, order: int | None = None, hsv_tol: float | None = None, k_band: float | None = None
+) -> tuple[DiscreteSS, np.ndarray]:
+    """Balanced truncation of a stable discrete model; returns (reduced model, Hankel singular values).
+
+    Gramians from scipy.linalg.solve_discrete_lyapunov (or, with ``k_band``, frequency-limited gramians over
+    |k| <= k_band, see :func:`band_gramians`), square-root balancing by eigen-factors and an SVD (works for
+    non-minimal realizations such as ARX). Keep ``order`` states, or the states whose HSV exceed ``hsv_tol``
+    times the largest (default 1e-8). Plain BT keeps stability and has H-infinity error <= 2 * sum(discarded
+    HSV); the frequency-limited variant is far more accurate in band for the same order but guarantees
+    neither, so its result must be checked (stability, validation error).
+    """
+    factors = _balancing_factors(ss, k_band)
+    hsv = factors[1]
+    if order is None:
+        tol = 1e-8 if hsv_tol is None else float(hsv_tol)
+        if not (math.isfinite(tol) and tol >= 0):
+            raise ValueError(f"hsv_tol: must be a finite number >= 0, got {hsv_tol!r}")
+        order = int(np.sum(hsv > tol * hsv[0])) if hsv.size and hsv[0] > 0 else 0
+    if not (isinstance(order, int | np.integer) and 0 <= order <= ss.n_states):
+        raise ValueError(f"order: must be an integer in [0, {ss.n_states}], got {order!r}")
+    return _truncate(ss, factors, int(order)), hsv
+
+
+def balanced_models(
+    ss: DiscreteSS, orders: list[int], k_band: float | None = None
+) -> tuple[list[DiscreteSS], np.ndarray]:
+    """Balanced truncations of ``ss`` at several orders from one balancing; returns (models, HSV)."""
+    factors = _balancing_factors(ss, k_band)
+    return [_truncate(ss, factors, int(r)) for r in orders], factors[1]
+
+
+def _balancing_factors(ss: DiscreteSS, k_band: float | None) -> tuple[np.ndarray, ...]:
+    """Square-root balancing data (U, HSV, V^T, L_c, L_o) of a stable model (plain or band-limited gramians)."""
+    if not ss.is_stable():
+        raise ValueError(f"ss: balanced truncation needs a stable model (spectral radius {ss.spectral_radius():.6f})")
+    if k_band is None:
+        wc = sla.solve_discrete_lyapunov(ss.A, ss.B @ ss.B.T)
+        wo = sla.solve_discrete_lyapunov(ss.A.T, ss.C.T @ ss.C)
+    else:
+        wc, wo = band_gramians(ss, k_band)
+    lc, lo = _psd_sqrt(wc), _psd_sqrt(wo)
+    u, hsv, vt = np.linalg.svd(lo.T @ lc)
+    return u, hsv, vt, lc, lo
+
+
+def _truncate(ss: DiscreteSS, factors: tuple[np.ndarray, ...], order: int) -> DiscreteSS:
+    """Project ``ss`` on the leading ``order`` balanced states (capped at the numerically nonzero HSVs)."""
+    u, hsv, vt, lc, lo = factors
+    order = min(order, int(np.sum(hsv > 1e-14 * max(hsv[0], 1e-300)))) if hsv.size else 0
+    s = 1.0 / np.sqrt(hsv[:order])
+    t = lc @ vt[:order].T * s  # [n, r]
+    ti = (s[:, None] * u[:, :order].T) @ lo.T  # [r, n]
+    return DiscreteSS(A=ti @ ss.A @ t, B=ti @ ss.B, C=ss.C @ t, D=ss.D.copy(), dt_star=ss.dt_star)
+
+
+def reflect_unstable_poles(ss: DiscreteSS) -> tuple[DiscreteSS, int]:
+    """Stabilize by reflecting poles with |z| >= 1 to 1 / conj(z) (same phase); returns (model, count reflected).
+
+    Works on the real Schur form A = Q T Q^T: a 1x1 block t -> 1/t, a 2x2 block of a complex pair is scaled
+    by 1/|z|^2. B, C, D are unchanged. Meant for spurious, unexcited ARX poles (typically near z = -1);
+    the caller must re-validate the model.
+    """
+    if ss.n_states == 0:
+        return ss, 0
+    t, q = sla.schur(ss.A, output="real")
+    n = t.shape[0]
+    count = 0
+    i = 0
+    while i < n:  # walk the diagonal blocks (a handful of unstable ones at most)
+        if i + 1 < n and t[i + 1, i] != 0.0:
+            blk = t[i : i + 2, i : i + 2]
+            r = float(np.abs(np.linalg.eigvals(blk)[0]))
+            if r >= 1.0:
+                t[i : i + 2, i : i + 2] = blk / r**2
+                count += 2
+            i += 2
+        else:
+            if abs(t[i, i]) >= 1.0:
+                t[i, i] = 1.0 / t[i, i]
+                count += 1
+            i += 1
+    if count == 0:
+        return ss, 0
+    return DiscreteSS(A=q @ t @ q.T, B=ss.B.copy(), C=ss.C.copy(), D=ss.D.copy(), dt_star=ss.dt_star), count
+
+
+def to_modal(ss: DiscreteSS, gamma: np.ndarray) -> DiscreteSS:
+    """Basis-coordinate model -> real modal coordinates: u = gamma xi, F = gamma^T f (gamma [m, k]), exact."""
+    gamma = np.asarray(gamma, dtype=float)
+    if gamma.ndim != 2 or gamma.shape[0] != ss.n_inputs or ss.n_inputs != ss.n_outputs:
+        raise ValueError(f"gamma: expected shape [{ss.n_inputs}, k] for a square {ss.n_outputs}x{ss.n_inputs} model")
+    return DiscreteSS(A=ss.A.copy(), B=ss.B @ gamma, C=gamma.T @ ss.C, D=gamma.T @ ss.D @ gamma, dt_star=ss.dt_star)
+
+
+def d2c_tustin(ss: DiscreteSS) -> ContinuousSS:
+    """Bilinear (Tustin) map to continuous time in t*: s* = (2/dt*)(z-1)/(z+1); balanced B/C scaling.
+
+    A_c = (2/dt*) (A - I)(I + A)^-1, B_c = sqrt(4/dt*) (I + A)^-1 B, C_c = sqrt(4/dt*) C (I + A)^-1,
+    D_c = D - C (I + A)^-1 B. Frequencies warp as k_c = tan(k dt*) / dt*. A pole at z = -1 is refused.
+    """
+    n = ss.n_states
+    eye = np.eye(n)
+    ipa = eye + ss.A
+    if n and np.linalg.cond(ipa) > 1e12:
+        raise ValueError("ss: a pole at z = -1 has no Tustin image")
+    p = np.linalg.inv(ipa) if n else np.zeros((0, 0))
+    w0 = 2.0 / ss.dt_star
+    r = math.sqrt(2.0 * w0)
+    return ContinuousSS(A=w0 * (ss.A - eye) @ p, B=r * p @ ss.B, C=r * ss.C @ p, D=ss.D - ss.C @ p @ ss.B)

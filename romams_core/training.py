@@ -1,0 +1,239 @@
+"""Training of an aerodynamic ROM at one Mach number: excite shapes, run the solver once, identify ARX.
+
+The ROM lives in the coordinates of the shapes it was trained on (basis shapes for ROM-AMS, a structure's
+own modes for ROM-PMS), in nondimensional time t* = t V / c_ref with step dt_star; its outputs are the
+generalized aerodynamic coefficients f = Q / q (m^3 with shapes in m, or m^2 per unit shape norm for
+dimensionless orthonormal basis shapes).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from romams_core.aero.protocol import ProgressFn, UnsteadySolver, check_dt_star, check_mach, check_shapes
+from romams_core.arx import ArxModel, arx_simulate, fit_arx, nrmse
+from romams_core.mesh import StandardMesh
+from romams_core.signals import excitation_signals
+from romams_core.statespace import (
+    DiscreteSS,
+    arx_to_ss,
+    balanced_models,
+    balanced_truncation,
+    reflect_unstable_poles,
+)
+
+__all__ = ["TrainedRom", "TrainingError", "train_rom", "default_n_steps"]
+
+
+class TrainingError(RuntimeError):
+    """Identification failed (tolerance not met or unstable model); ``outputs`` lists the offending outputs."""
+
+    def __init__(self, message: str, outputs: list[int] | None = None) -> None:
+        super().__init__(message)
+        self.outputs = list(outputs or [])
+
+
+@dataclass
+class TrainedRom:
+    """An identified aerodynamic ROM at one Mach number, with its training data and diagnostics."""
+
+    solver: str
+    mach: float
+    dt_star: float
+    c_ref: float  # m
+    n_basis: int  # m, inputs = outputs
+    na: int
+    nb: int
+    k_max: float
+    seed: int
+    ridge: float
+    arx: ArxModel
+    ss: DiscreteSS  # model used downstream (reduced when asked), basis coordinates, t* step dt_star
+    n_states_full: int  # states of the ARX realization before reduction
+    hsv: np.ndarray  # Hankel singular values of the full realization ([] when not reduced)
+    signals_train: np.ndarray  # [T, m]
+    signals_validation: np.ndarray  # [T, m]
+    gac_train: np.ndarray  # [T, m] solver output
+    gac_validation: np.ndarray  # [T, m] solver output
+    predicted_validation: np.ndarray  # [T, m] ROM (ss) output on the validation signal
+    training_nrmse: np.ndarray  # [m] ARX free-run on the training signal
+    validation_nrmse: np.ndarray  # [m] ss free-run on the validation signal
+    arx_validation_nrmse: np.ndarray  # [m] unreduced ARX on the validation signal
+    spectral_radius: float
+    nrmse_tol: float
+    warnings: list[str] = field(default_factory=list)
+    train_seconds: float = 0.0
+    solver_seconds: float = 0.0
+
+    def summary(self) -> dict[str, object]:
+        """Small JSON-able summary (floats and lists)."""
+        return {
+            "solver": self.solver,
+            "mach": self.mach,
+            "dt_star": self.dt_star,
+            "n_basis": self.n_basis,
+            "na": self.na,
+            "nb": self.nb,
+            "n_states": self.ss.n_states,
+            "n_states_full": self.n_states_full,
+            "validation_nrmse": [float(x) for x in self.validation_nrmse],
+            "spectral_radius": self.spectral_radius,
+            "train_seconds": self.train_seconds,
+            "warnings": list(self.warnings),
+        }
+
+
+def default_n_steps(n_inputs: int, na: int, nb: int, dt_star: float, k_max: float) -> int:
+    """Signal length (steps): >= 16 samples per ARX parameter per output, >= 200 t*, even."""
+    n = max(
+        16 * n_inputs * (na + nb),
+        int(math.ceil(200.0 / dt_star)),
+        int(math.ceil(40.0 * math.pi / (k_max * dt_star))),
+    )
+    return n + (n % 2)
+
+
+def train_rom(
+    mesh: StandardMesh,
+    shapes: np.ndarray,
+    mach: float,
+    solver: UnsteadySolver,
+    na: int = 8,
+    nb: int = 8,
+    k_max: float = 1.5,
+    n_steps: int | None = None,
+    dt_star: float | None = None,
+    seed: int = 0,
+    nrmse_tol: float = 0.02,
+    ridge: float = 0.0,
+    reduce_order: int | str | None = None,
+    hsv_tol: float | None = None,
+    reduce_tol: float = 0.002,
+    progress: ProgressFn | None = None,
+) -> TrainedRom:
+    """Identify an ARX ROM of ``solver`` for shapes [N, m] (m) at ``mach``; one solver run trains and validates.
+
+    Signals: one band-limited (0 < k <= k_max on the root semichord) uncorrelated signal per shape, peak
+    surface displacement 1 % of c_ref; run as [train | validation] in one call. The ARX (orders na, nb, ridge)
+    is fitted on the training half and checked in free run on the validation half: any output with NRMSE
+    > nrmse_tol raises TrainingError naming it, as does a model that cannot be stabilized (unstable, unexcited
+    ARX poles are reflected into the unit circle, with a warning). Reduction: ``reduce_order`` = an int or
+    ``hsv_tol`` (plain balanced truncation), or "auto": the smallest order (steps of m) of a frequency-limited
+    balanced truncation (|k| <= k_max) that is stable and keeps every validation NRMSE <= ``reduce_tol``
+    (falls back to the full model). The reduced model must meet nrmse_tol too. Default dt_star = 1 / n_chord.
+    """
+    t_start = time.perf_counter()
+    mach = check_mach(mach)
+    shapes = check_shapes(mesh, shapes)
+    dt_star = check_dt_star(1.0 / mesh.n_chord if dt_star is None else dt_star)
+    if not (math.isfinite(nrmse_tol) and nrmse_tol > 0):
+        raise ValueError(f"nrmse_tol: must be a finite number > 0, got {nrmse_tol!r}")
+    m = shapes.shape[1]
+    if n_steps is None:
+        n_steps = default_n_steps(m, na, nb, dt_star, k_max)
+    if not (isinstance(n_steps, int | np.integer) and n_steps >= 16):
+        raise ValueError(f"n_steps: must be an integer >= 16, got {n_steps!r}")
+    exc = excitation_signals(shapes, mesh.c_ref, int(n_steps), dt_star, k_max=k_max, seed=seed)
+
+    def _solver_progress(frac: float, msg: str) -> None:
+        if progress is not None:
+            progress(0.9 * frac, msg)
+
+    t_solver = time.perf_counter()
+    both = np.vstack([exc.train, exc.validation])
+    gac = np.asarray(solver.simulate(mesh, shapes, both, mach, dt_star, progress=_solver_progress), dtype=float)
+    solver_seconds = time.perf_counter() - t_solver
+    if gac.shape != both.shape or not np.all(np.isfinite(gac)):
+        raise TrainingError(f"solver {solver.name!r} returned GAC of shape {gac.shape} (expected {both.shape}) "
+                            "or non-finite values")
+    if progress is not None:
+        progress(0.92, "identifying ARX model")
+    n = int(n_steps)
+    arx = fit_arx(exc.train, gac[:n], na=na, nb=nb, ridge=ridge, dt_star=dt_star)
+    full = arx_to_ss(arx, dt_star)
+    notes: list[str] = []
+    rho = full.spectral_radius()
+    pred_arx = arx_simulate(arx, both)
+    if not rho < 1.0:
+        full, n_ref = reflect_unstable_poles(full)
+        notes.append(
+            f"ARX fit had {n_ref} unstable pole(s) (spectral radius {rho:.4f}, unexcited by the band-limited "
+            "signals); reflected to 1/conj(z) and re-validated"
+        )
+        if not full.spectral_radius() < 1.0:
+            raise TrainingError(
+                f"identified ARX model is unstable (spectral radius {rho:.6f} >= 1) and could not be stabilized; "
+                "try other na/nb or a longer signal"
+            )
+        pred_arx = full.simulate(both)
+    training_nrmse = nrmse(gac[:n], pred_arx[:n])
+    arx_val = nrmse(gac[n:], pred_arx[n:])
+    ss, hsv = full, np.zeros(0)
+    if reduce_order == "auto":
+        if progress is not None:
+            progress(0.95, "frequency-limited balanced truncation")
+        ss, hsv = _auto_reduce(full, both, gac, n, m, k_max, reduce_tol)
+    elif reduce_order is not None or hsv_tol is not None:
+        if isinstance(reduce_order, str):
+            raise ValueError(f"reduce_order: must be an integer, 'auto' or None, got {reduce_order!r}")
+        if progress is not None:
+            progress(0.95, "balanced truncation")
+        ss, hsv = balanced_truncation(full, order=reduce_order, hsv_tol=hsv_tol)
+    pred = ss.simulate(both)[n:] if ss is not full else pred_arx[n:]
+    val = nrmse(gac[n:], pred)
+    bad = [int(i) for i in np.flatnonzero(~(val <= nrmse_tol))]
+    if bad:
+        detail = ", ".join(f"output {i}: {val[i]:.4f}" for i in bad)
+        raise TrainingError(f"validation NRMSE above nrmse_tol = {nrmse_tol:g} for {detail} "
+                            f"(states {ss.n_states}, na = {na}, nb = {nb})", outputs=bad)
+    if progress is not None:
+        progress(1.0, f"trained: max validation NRMSE {val.max():.4f}")
+    info = solver.info(mach) if hasattr(solver, "info") else None
+    return TrainedRom(
+        solver=str(getattr(solver, "name", type(solver).__name__)),
+        mach=mach,
+        dt_star=dt_star,
+        c_ref=float(mesh.c_ref),
+        n_basis=m,
+        na=int(na),
+        nb=int(nb),
+        k_max=float(k_max),
+        seed=int(seed),
+        ridge=float(ridge),
+        arx=arx,
+        ss=ss,
+        n_states_full=full.n_states,
+        hsv=hsv,
+        signals_train=exc.train,
+        signals_validation=exc.validation,
+        gac_train=gac[:n],
+        gac_validation=gac[n:],
+        predicted_validation=pred,
+        training_nrmse=training_nrmse,
+        validation_nrmse=val,
+        arx_validation_nrmse=arx_val,
+        spectral_radius=float(ss.spectral_radius()),
+        nrmse_tol=float(nrmse_tol),
+        warnings=(list(info.warnings) if info is not None else []) + notes,
+        train_seconds=time.perf_counter() - t_start,
+        solver_seconds=solver_seconds,
+    )
+
+
+def _auto_reduce(
+    full: DiscreteSS, u: np.ndarray, f: np.ndarray, n_train: int, m: int, k_band: float, tol: float
+) -> tuple[DiscreteSS, np.ndarray]:
+    """Smallest stable band-limited balanced truncation (orders m, 2m, ...) with validation NRMSE <= tol."""
+    orders = list(range(m, full.n_states, m))
+    models, hsv = balanced_models(full, orders, k_band=k_band)
+    for red in models:  # a handful of candidate orders
+        if not red.is_stable():
+            continue
+        err = nrmse(f[n_train:], red.simulate(u)[n_train:])
+        if np.all(err <= tol):
+            return red, hsv
+    return full, hsv
