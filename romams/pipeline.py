@@ -1,0 +1,211 @@
+"""In-process ROM-AMS pipeline on the local store: wing -> basis -> ROMs per Mach -> flutter evaluation.
+
+The CLI (``romams basis/train/flutter/demo``) uses these functions; the service's Celery tasks do the
+same steps as jobs. Both read and write the one store (``romams.store``), so a basis or ROM built by
+one is found by the other (ROM identity = solver, ARX orders and training options, as in the API).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from romams_core.basis import Basis, build_basis, build_basis_for_wing, snapshot
+from romams_core.mesh import StandardMesh, standard_mesh
+from romams_core.wing import WingDefinition, template
+
+Log = Callable[[str], None]
+
+#: Mach numbers of the ROM-AMS paper's envelope.
+PAPER_MACHS = (0.79, 0.83, 0.87, 0.91, 0.95)
+
+
+def _stderr(msg: str) -> None:
+    """Default log: one line on stderr (keeps stdout clean for --json)."""
+    print(msg, file=sys.stderr, flush=True)
+
+
+def resolve_wing(store: Any, name: str) -> tuple[int, WingDefinition]:
+    """(id, wing) of a stored wing by name or id, else the template of that name stored under its name."""
+    found = store.find_wing(name)
+    if found is not None:
+        return int(found[0]), found[1]
+    wing = template(name)  # ValueError naming the unknown template
+    return int(store.ensure_wing(wing)), wing
+
+
+def basis_params(samples: int, modes: int, mac_threshold: float, max_basis: int, seed: int) -> dict[str, Any]:
+    """The parameters that identify a basis build (as stored with it)."""
+    return {"samples": int(samples), "modes": int(modes), "mac_threshold": float(mac_threshold),
+            "max_basis": int(max_basis), "seed": int(seed)}
+
+
+def own_mode_basis(wing: WingDefinition, modes: int) -> Basis:
+    """Basis of a wing without design variables: its own first ``modes`` mode shapes (orthonormalized)."""
+    shapes = snapshot(wing, None, modes)
+    return build_basis(shapes, mac_threshold=0.99999, max_basis=modes, n_modes=modes,
+                       designs=np.zeros((1, 0)), design_names=[], wing_name=wing.name)
+
+
+def ensure_basis(
+    store: Any,
+    wing_id: int,
+    wing: WingDefinition,
+    *,
+    samples: int = 25,
+    modes: int = 4,
+    mac_threshold: float = 0.98,
+    max_basis: int = 12,
+    seed: int = 0,
+    log: Log = _stderr,
+) -> tuple[int, Basis]:
+    """(id, Basis): the stored basis built with these parameters, else build it now (saying so) and store it."""
+    params = basis_params(samples, modes, mac_threshold, max_basis, seed)
+    for row in store.list_bases(wing_id):
+        if {k: row["params"].get(k) for k in params} == params:
+            return int(row["id"]), store.load_basis(int(row["id"]))
+    t0 = time.perf_counter()
+    if not wing.design_variables:
+        log(f"wing {wing.name!r} has no design variables: its own {modes} modes are its basis")
+        basis = own_mode_basis(wing, modes)
+    else:
+        log(f"building the PCA basis of {wing.name!r}: {samples} LHS samples x {modes} modes, MAC >= {mac_threshold:g}")
+        basis = build_basis_for_wing(wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
+                                     max_basis=max_basis, seed=seed)
+    bid = store.save_basis(wing_id, basis, params)
+    log(f"basis {bid}: {basis.n_basis} shapes, worst sample MAC {basis.min_mac:.5f} ({time.perf_counter() - t0:.1f} s)")
+    return int(bid), basis
+
+
+def rom_identity(solver: str = "uvlm", na: int = 8, nb: int = 8, options: Mapping[str, Any] | None = None) -> dict:
+    """Identity of a trained ROM besides (wing, basis, Mach): the same dict the HTTP API uses."""
+    return {"solver": str(solver), "na": int(na), "nb": int(nb), "options": dict(options or {})}
+
+
+def make_solver(name: str) -> Any:
+    """Unsteady aerodynamic solver by name."""
+    if name == "uvlm":
+        from romams_core.aero.uvlm import UvlmSolver
+
+        return UvlmSolver()
+    raise ValueError(f"solver: unknown solver {name!r} (available: 'uvlm')")
+
+
+def _train_one(args: tuple[StandardMesh, np.ndarray, float, dict[str, Any]]) -> Any:
+    """Worker-process body: train one ROM (top level so it pickles)."""
+    from romams_core.training import train_rom
+
+    mesh, shapes, mach, ident = args
+    return train_rom(mesh, shapes, mach, make_solver(ident["solver"]), na=ident["na"], nb=ident["nb"],
+                     **ident["options"])
+
+
+def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], processes: int | None = None) -> list[Any]:
+    """Map ``fn`` over ``items`` in up to ``processes`` worker processes (default: CPU count), in order."""
+    n = min(len(items), processes or os.cpu_count() or 1)
+    if n <= 1:
+        return [fn(x) for x in items]
+    with ProcessPoolExecutor(max_workers=n) as pool:
+        return list(pool.map(fn, items))
+
+
+def train_shapes(mesh: StandardMesh, shapes: np.ndarray, machs: Sequence[float], ident: Mapping[str, Any],
+                 processes: int | None = None) -> list[Any]:
+    """Train one ROM per Mach on ``shapes`` [N, m] (in parallel processes); returns TrainedRoms in order."""
+    ident = dict(ident)
+    return parallel_map(_train_one, [(mesh, shapes, float(m), ident) for m in machs], processes)
+
+
+def ensure_roms(
+    store: Any,
+    wing_id: int,
+    wing: WingDefinition,
+    basis_id: int,
+    basis: Basis,
+    machs: Sequence[float],
+    *,
+    ident: Mapping[str, Any] | None = None,
+    processes: int | None = None,
+    log: Log = _stderr,
+) -> dict[float, tuple[int, Any]]:
+    """{mach: (rom_id, TrainedRom)}: stored ROMs with this identity, training the missing ones (in parallel)."""
+    ident = dict(ident or rom_identity())
+    out: dict[float, tuple[int, Any]] = {}
+    missing = []
+    for mach in machs:
+        found = store.find_rom(wing_id, basis_id, float(mach), ident)
+        if found is None:
+            missing.append(float(mach))
+        else:
+            out[float(mach)] = (int(found[0]), found[1])
+    if missing:
+        log(f"training {len(missing)} ROM(s) with {ident['solver']} on {basis.n_basis} basis shapes at Mach "
+            + ", ".join(f"{m:g}" for m in missing))
+        t0 = time.perf_counter()
+        roms = train_shapes(standard_mesh(wing.planform), basis.shapes, missing, ident, processes)
+        for mach, rom in zip(missing, roms, strict=True):
+            rid = store.save_rom(wing_id, basis_id, rom, ident)
+            out[mach] = (int(rid), rom)
+            log(f"  M = {mach:g}: rom {rid}, validation NRMSE max {np.max(rom.validation_nrmse):.2e}, "
+                f"{rom.train_seconds:.1f} s")
+        log(f"trained in {time.perf_counter() - t0:.1f} s wall")
+    return {m: out[float(m)] for m in sorted(out)}
+
+
+@dataclass
+class SweepChoice:
+    """Flutter sweep options chosen at the CLI/API edge."""
+
+    sweep: str = "constant-density"
+    altitude_ref_m: float = 10_000.0
+    rho_ref: float | None = None
+
+    def flutter_options(self) -> dict[str, Any]:
+        """Keyword arguments for romams_core.flutter.flutter_analysis."""
+        opts: dict[str, Any] = {"altitude_ref_m": self.altitude_ref_m}
+        if self.rho_ref is not None:
+            opts["rho_ref"] = self.rho_ref
+        return opts
+
+
+def flutter_pms(modal: Any, mesh: StandardMesh, machs: Sequence[float], ident: Mapping[str, Any],
+                sweep: SweepChoice, processes: int | None = None, roms: Sequence[Any] | None = None) -> list[Any]:
+    """ROM-PMS reference: train on the structure's own modes at each Mach, then the same flutter search."""
+    from romams_core.flutter import flutter_analysis
+
+    roms = list(roms) if roms is not None else train_shapes(mesh, modal.shapes, machs, ident, processes)
+    return [flutter_analysis(modal.omega, rom.ss, rom.c_ref, float(m), sweep=sweep.sweep,
+                             **sweep.flutter_options())
+            for m, rom in zip(machs, roms, strict=True)]
+
+
+def result_row(r: Any) -> dict[str, Any]:
+    """JSON row of one FlutterResult (keys of the CLI/API contract plus context)."""
+
+    def f(x: Any) -> float | None:
+        return None if x is None or not math.isfinite(float(x)) else float(x)
+
+    return {
+        "mach": float(r.mach),
+        "v_flutter_m_s": f(r.v_flutter_m_s),
+        "omega_flutter_rad_s": f(r.omega_flutter_rad_s),
+        "q_flutter_pa": f(r.q_flutter_pa),
+        "sdoff": bool(r.sdoff),
+        "flutter_mode": None if r.flutter_mode is None else int(r.flutter_mode),
+        "flutter_found": bool(r.flutter_found),
+        "frequency_hz": None if r.omega_flutter_rad_s is None else f(r.omega_flutter_rad_s / (2 * math.pi)),
+        "altitude_m": f(r.altitude_m),
+        "v_true_m_s": f(r.v_true_m_s),
+        "k_flutter": f(r.k_flutter),
+        "sweep": r.sweep,
+        "coupling": r.coupling,
+        "message": r.message,
+    }
