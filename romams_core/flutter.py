@@ -41,7 +41,7 @@ import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq, linear_sum_assignment
 
-from romams_core.atmosphere import altitude_for_dynamic_pressure, isa
+from romams_core.atmosphere import altitude_for_dynamic_pressure, isa, isa_table
 
 SWEEPS = ("constant-density", "constant-speed", "matched")
 COUPLINGS = ("tustin", "zoh")
@@ -73,7 +73,7 @@ class FlutterResult:
     sdoff: bool
     energy_share: float | None  # largest modal share of the flutter eigenvector ([xi; xi'/omega] norm)
     frequency_separation: float | None  # min relative frequency gap to another structural branch (info)
-    single_mode_unstable: bool  # the flutter mode alone is unstable at q <= sdoff_q_factor q_f (checked if share high)
+    single_mode_unstable: bool  # dominant mode alone unstable at q <= sdoff_q_factor q_f (checked if share high)
     message: str
     rho_ref: float
     a_ref: float
@@ -252,11 +252,12 @@ def _initial_branches(omega: np.ndarray, zeta: np.ndarray) -> _Branches:
 
 
 def _assign(
-    prev: _Branches, lam_c: np.ndarray, a_c: np.ndarray, period: float, weight: float
+    prev: _Branches, lam_c: np.ndarray, a_c: np.ndarray, period: float, weight: float, omega: np.ndarray
 ) -> tuple[_Branches, float, float]:
     """One tracking step: Hungarian assignment of candidates (s, normalized structural vectors) to branches.
 
-    Returns the new branch state, the smallest assigned MAC and the largest relative eigenvalue jump.
+    Eigenvalue distances are relative to max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a
+    finite scale). Returns the new branch state, the smallest assigned MAC and the largest relative jump.
     """
     k = prev.lam.size
     if math.isfinite(period):
@@ -265,7 +266,7 @@ def _assign(
     else:
         s = np.repeat(lam_c[None, :], k, axis=0)
     mac = np.abs(prev.vec.conj().T @ a_c) ** 2
-    dist = np.abs(s - prev.lam[:, None]) / np.abs(prev.lam)[:, None]
+    dist = np.abs(s - prev.lam[:, None]) / np.maximum(np.abs(prev.lam), omega)[:, None]
     cost = (1.0 - mac) + weight * dist
     cost[~np.isfinite(cost)] = 1e6
     rows, cols = linear_sum_assignment(cost)
@@ -296,8 +297,8 @@ class _Tracker:
     def step(self, prev: _Branches, p0: float, p1: float, lam1: np.ndarray, xs1: np.ndarray, per1: float,
              depth: int = 0) -> _Branches:
         """Track from p0 (state prev) to p1 (given eigen-data), halving the step when ambiguous."""
-        new, mac_min, jump = _assign(prev, lam1, xs1, per1, self.weight)
-        if (mac_min < 0.8 or jump > 0.5) and depth < 6:
+        new, mac_min, jump = _assign(prev, lam1, xs1, per1, self.weight, self.m.omega)
+        if (mac_min < 0.8 or jump > 1.0) and depth < 6:
             pm = 0.5 * (p0 + p1)
             lam_m, xs_m, per_m = self.eig(np.array([pm]))
             mid = self.step(prev, p0, pm, lam_m[0], xs_m[0], float(per_m[0]), depth + 1)
@@ -373,8 +374,8 @@ def flutter_analysis(
     Ranges: ``v_max`` (m/s, constant-density; default 3 M a_ref), ``q_max`` (Pa, constant-speed; default
     4 x 0.5 rho_ref (M a_ref)^2), ``altitude_range_m`` (matched). ``n_points`` coarse sweep points,
     refined with brentq to ``rtol`` relative. SDOFF when the flutter vector's largest modal share is
-    >= ``sdoff_share`` AND the flutter branch's mode alone (its own diagonal aero term, no coupling with
-    the other modes) is already unstable at q <= ``sdoff_q_factor`` q_f. Returns a FlutterResult (no flutter in
+    >= ``sdoff_share`` AND that dominant mode alone (its own diagonal aero term, no coupling with the
+    other modes) is already unstable at q <= ``sdoff_q_factor`` q_f. Returns a FlutterResult (no flutter in
     range is a result with flutter_found False).
     """
     if sweep not in SWEEPS:
@@ -440,15 +441,15 @@ def flutter_analysis(
         h_lo, h_hi = (float(x) for x in altitude_range_m)
         if not (math.isfinite(h_lo) and math.isfinite(h_hi) and h_lo < h_hi):
             raise ValueError(f"altitude_range_m: must be (low, high) with low < high, got {altitude_range_m!r}")
-        top = isa(h_hi)
-        isa(h_lo)  # range check
-        v_top, rho_top = mach * float(top.a), float(top.rho)
+        rho_top, a_top, _ = isa_table(h_hi)
+        isa_table(h_lo)  # range check
+        v_top, rho_top = mach * float(a_top), float(rho_top)
 
         def cond(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             p = np.asarray(p, float)
-            st = isa(h_hi - np.maximum(p, 0.0))
-            v = np.where(p < 0, v_top, mach * st.a)
-            rho = np.where(p < 0, rho_top * (1.0 + np.minimum(p, 0.0)), st.rho)
+            rho_h, a_h, _ = isa_table(h_hi - np.maximum(p, 0.0))
+            v = np.where(p < 0, v_top, mach * a_h)
+            rho = np.where(p < 0, rho_top * (1.0 + np.minimum(p, 0.0)), rho_h)
             return v, rho
 
         p_start = -1.0
@@ -547,7 +548,8 @@ def flutter_analysis(
             p_chk = max(h_hi - h_chk, p_f)
         if i_cross == 0:  # unstable from the start: growth at p_f ~ 0 is too small to see, use the first point
             p_chk = max(p_chk, float(grid[0]))
-        single_unstable = _single_mode_unstable(model, cond, branch, p_start, p_chk, track_weight)
+        dominant = int(np.argmax(share))
+        single_unstable = _single_mode_unstable(model, cond, dominant, p_start, p_chk, track_weight)
     sdoff = bool(energy_share >= sdoff_share and single_unstable)
 
     omega_f = abs(lam_fl.imag)

@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from romams_core.atmosphere import altitude_for_dynamic_pressure, flight_dynamic_pressure, isa
+from romams_core.atmosphere import (
+    altitude_for_dynamic_pressure,
+    altitude_for_pressure,
+    flight_dynamic_pressure,
+    isa,
+    isa_table,
+)
 
 
 def test_isa_tabulated_values():
@@ -34,3 +40,18 @@ def test_range_errors_and_clamp():
     assert altitude_for_dynamic_pressure(1e-3, 0.8, clamp=True) == pytest.approx(81020.0)
     with pytest.raises(ValueError, match="mach"):
         altitude_for_dynamic_pressure(1000.0, 0.0)
+
+
+def test_table_matches_ambiance():
+    """The 10 m table is within 1e-7 of ambiance; 5e-6 right at layer boundaries (ambiance's own jump there)."""
+    rng = np.random.default_rng(3)
+    h = rng.uniform(-5000.0, 81000.0, 400)
+    st = isa(h)
+    rho, a, p = isa_table(h)
+    np.testing.assert_allclose(rho, st.rho, rtol=1e-7)
+    np.testing.assert_allclose(a, st.a, rtol=1e-7)
+    np.testing.assert_allclose(p, st.pressure, rtol=1e-7)
+    np.testing.assert_allclose(altitude_for_pressure(st.pressure), h, atol=2e-3)
+    hk = np.array([11019.0, 11020.0, 20063.1, 32161.9, 47350.1])
+    stk = isa(hk)
+    np.testing.assert_allclose(isa_table(hk)[0], stk.rho, rtol=5e-6)
