@@ -41,6 +41,7 @@ from romams_core.aero.protocol import (
     mach_warnings,
 )
 from romams_core.mesh import StandardMesh
+from romams_core.statespace import DiscreteSS
 
 __all__ = [
     "UvlmSystem",
@@ -363,12 +364,13 @@ def frequency_response(
     return 2.0 * system.c_ref**2 * np.einsum("km,nkj->nmj", phi_f, forces)
 
 
-def uvlm_state_space(system: UvlmSystem, shapes: np.ndarray) -> dict[str, np.ndarray]:
+def uvlm_state_space(system: UvlmSystem, shapes: np.ndarray) -> DiscreteSS:
     """Full-order discrete state space of the UVLM with displacement input u (BDF2 du/dt*), t* step dt_star.
 
-    x(n) = [G_TE(n-1..n-nw) ; G(n-1) ; G(n-2) ; u(n-1) ; u(n-2)] -> returns dict A, B, C, D (f in m^3) such that
-    x(n+1) = A x(n) + B u(n), f(n) = C x(n) + D u(n). Built with the predictor removed (input at the same
-    step). Size ns*nw + 2K + 2m states: meant as a reference for small meshes.
+    x(n) = [G_TE(n-1..n-nw) ; G(n-1) ; G(n-2) ; u(n-1) ; u(n-2)], x(n+1) = A x(n) + B u(n),
+    f(n) = C x(n) + D u(n) (GAC, m^3 per unit u; the same numbers as the time march, the predictor removed so
+    the input acts at the same step). Size ns*nw + 2K + 2m states: a full-order reference for small meshes
+    or short wakes (the flutter code can use it in place of an identified ROM).
     """
     shapes = check_shapes_system(system, shapes)
     k, ns, nw, m = system.n_panels, system.n_span, system.n_wake, shapes.shape[1]
@@ -403,7 +405,7 @@ def uvlm_state_space(system: UvlmSystem, shapes: np.ndarray) -> dict[str, np.nda
     c[:, ig1] += -2.0 / dt * c_d
     c[:, ig2] += 0.5 / dt * c_d
     d = cg_tot @ b0
-    return {"A": a, "B": b, "C": c, "D": d}
+    return DiscreteSS(A=a, B=b, C=c, D=d, dt_star=system.dt_star)
 
 
 def check_shapes_system(system: UvlmSystem, shapes: np.ndarray) -> np.ndarray:

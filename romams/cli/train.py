@@ -1,0 +1,104 @@
+"""``romams train``: identify the aerodynamic ROM of a wing's basis shapes at one Mach number (local store)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from romams.cli.app import app
+from romams.pipeline import ensure_basis, ensure_roms, resolve_wing, rom_identity
+
+
+def _reduce_option(value: str | None) -> int | str | None:
+    """--reduce: 'auto', a state count, or None."""
+    if value is None or value == "none":
+        return None
+    if value == "auto":
+        return "auto"
+    try:
+        order = int(value)
+    except ValueError:
+        raise typer.BadParameter("must be 'auto', 'none' or a positive integer", param_hint="--reduce") from None
+    if order < 1:
+        raise typer.BadParameter("must be a positive integer", param_hint="--reduce")
+    return order
+
+
+@app.command("train")
+def train_command(
+    wing: str = typer.Option("cropped-delta", "--wing", help="stored wing name / id, or a template name"),
+    mach: float = typer.Option(0.87, "--mach", min=0.0, max=0.99, help="free-stream Mach number"),
+    solver: str = typer.Option("uvlm", "--solver", help="unsteady aerodynamic solver"),
+    na: int = typer.Option(8, "--na", min=0, max=64, help="ARX output delay order"),
+    nb: int = typer.Option(8, "--nb", min=1, max=64, help="ARX input delay order"),
+    reduce: str | None = typer.Option(None, "--reduce", help="balanced truncation: 'auto' or a state count"),
+    n_steps: int | None = typer.Option(None, "--n-steps", min=16, help="signal length (steps); default automatic"),
+    seed: int = typer.Option(0, "--seed", help="seed of the excitation signals"),
+    as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
+    plot: Path | None = typer.Option(None, "--plot", help="write PNG figures (signals, validation) here"),
+) -> None:
+    """Train (or find in the store) the ROM of the wing's basis at one Mach; builds the basis first if needed."""
+    from romams.store import open_store
+    from romams_core.training import TrainingError
+
+    options: dict[str, Any] = {}
+    red = _reduce_option(reduce)
+    if red is not None:
+        options["reduce_order"] = red
+    if n_steps is not None:
+        options["n_steps"] = n_steps
+    if seed:
+        options["seed"] = seed
+    store = open_store()
+    try:
+        wing_id, w = resolve_wing(store, wing)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--wing") from None
+    basis_id, basis = ensure_basis(store, wing_id, w)  # says on stderr when it builds one
+    ident = rom_identity(solver, na, nb, options)
+    try:
+        roms = ensure_roms(store, wing_id, w, basis_id, basis, [mach], ident=ident, processes=1)
+    except TrainingError as exc:
+        typer.echo(f"training failed: {exc}", err=True)
+        raise typer.Exit(code=2) from None
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from None
+    rom_id, rom = roms[float(mach)]
+    report: dict[str, Any] = {
+        "rom_id": rom_id,
+        "mach": float(rom.mach),
+        "n_basis": int(rom.n_basis),
+        "validation_nrmse": [float(x) for x in rom.validation_nrmse],
+        "train_seconds": round(float(rom.train_seconds), 3),
+        "wing_id": wing_id,
+        "basis_id": basis_id,
+        "solver": rom.solver,
+        "na": rom.na,
+        "nb": rom.nb,
+        "n_states": rom.ss.n_states,
+        "dt_star": rom.dt_star,
+        "warnings": list(rom.warnings),
+    }
+    if plot is not None:
+        report["plots"] = _write_plots(plot, rom)
+    if as_json:
+        typer.echo(json.dumps(report))
+        return
+    for msg in rom.warnings:
+        typer.echo(f"warning: {msg}", err=True)
+    typer.echo(f"rom {rom_id}: M = {rom.mach:g}, {rom.n_basis} basis shapes, {rom.ss.n_states} states, "
+               f"max validation NRMSE {max(report['validation_nrmse']):.2e}, trained in {rom.train_seconds:.1f} s")
+
+
+def _write_plots(directory: Path, rom: Any) -> list[str]:
+    """Excitation and validation PNGs; returns their paths."""
+    from romams.plots.training import plot_signals, plot_validation, save
+
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = [directory / f"training_signals_M{rom.mach:g}.png", directory / f"training_validation_M{rom.mach:g}.png"]
+    save(plot_signals(rom), str(paths[0]))
+    save(plot_validation(rom), str(paths[1]))
+    return [str(p) for p in paths]

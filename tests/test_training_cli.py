@@ -1,0 +1,51 @@
+"""``romams train`` through typer's CliRunner: JSON contract, plots, reuse of the stored ROM, bad input."""
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from romams.cli import app
+from romams.settings import get_settings
+from romams.store import open_store
+
+
+@pytest.fixture()
+def data_dir(tmp_path, monkeypatch):
+    monkeypatch.setenv("ROMAMS_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.delenv("ROMAMS_DATABASE_URL", raising=False)
+    get_settings.cache_clear()
+    yield tmp_path
+    get_settings.cache_clear()
+
+
+def test_train_command_json_plots_and_store(data_dir):
+    plots = data_dir / "plots"
+    runner = CliRunner()
+    res = runner.invoke(app, ["train", "--wing", "cropped-delta", "--mach", "0.87", "--json", "--plot", str(plots)])
+    assert res.exit_code == 0, res.output
+    rep = json.loads(res.stdout)
+    for key in ("rom_id", "mach", "n_basis", "validation_nrmse", "train_seconds"):
+        assert key in rep
+    assert rep["mach"] == pytest.approx(0.87)
+    assert len(rep["validation_nrmse"]) == rep["n_basis"] >= 1
+    assert max(rep["validation_nrmse"]) < 0.01
+    assert "building the PCA basis" in res.stderr
+    for p in rep["plots"]:
+        with open(p, "rb") as fh:
+            assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
+    rom = open_store().load_rom(rep["rom_id"])
+    np.testing.assert_allclose(rom.validation_nrmse, rep["validation_nrmse"], rtol=1e-12)
+    assert rom.ss.is_stable()
+    # the same request again finds the stored ROM instead of retraining
+    again = json.loads(runner.invoke(app, ["train", "--mach", "0.87", "--json"]).stdout)
+    assert again["rom_id"] == rep["rom_id"]
+
+
+def test_train_command_rejects_bad_input(data_dir):
+    runner = CliRunner()
+    res = runner.invoke(app, ["train", "--wing", "no-such-wing"])
+    assert res.exit_code == 2 and "unknown template" in res.output
+    res = runner.invoke(app, ["train", "--reduce", "lots"])
+    assert res.exit_code == 2 and "--reduce" in res.output
