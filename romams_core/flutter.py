@@ -310,7 +310,10 @@ def _single_mode_unstable(
     m: _Model, cond: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], j: int, p_start: float, p_end: float,
     weight: float, n: int = 6,
 ) -> bool:
-    """True when structural mode j alone (diagonal aero term only) has an unstable root at some p <= p_end."""
+    """True when structural mode j alone (diagonal aero term only) has an unstable oscillatory root at some p <= p_end.
+
+    A zero-frequency (divergence) root of the single mode does not count: SDOFF is a dynamic instability.
+    """
     if m.k == 1:
         return True
     sub = _Model(1, m.na, m.omega[[j]], m.zeta[[j]], m.c_ref, m.dt_star, m.coupling, m.a, m.b[:, [j]],
@@ -322,7 +325,8 @@ def _single_mode_unstable(
     p_prev = p_start
     for i in range(grid.size):
         state = tr.step(state, p_prev, grid[i], lam[i], xs[i], float(per[i]))
-        if state.lam[0].real > 1e-9 * abs(state.lam[0]):
+        s = state.lam[0]
+        if s.real > 1e-9 * abs(s) and abs(s.imag) > 0.05 * sub.omega[0]:  # oscillatory (not divergence)
             return True
         p_prev = grid[i]
     return False
@@ -365,7 +369,7 @@ def flutter_analysis(
     sdoff_share: float = 0.9,
     sdoff_q_factor: float = 1.1,
     track_weight: float = 0.5,
-    rtol: float = 1e-5,
+    rtol: float = 1e-4,
 ) -> FlutterResult:
     """Flutter search at one Mach number for structure ``omega`` [k] (rad/s) and modal aero ROM ``aero``.
 
@@ -491,7 +495,6 @@ def flutter_analysis(
         }[sweep]
         return FlutterResult(**_empty(mach, sweep, coupling, f"no flutter up to {rng}", **common))
 
-    branch = int(first.argmin())
     if i_cross == 0:
         lo_p = p_start + 1e-6 * (grid[0] - p_start)
         lam_lo, xs_lo, per_lo = tracker.eig(np.array([lo_p]))
@@ -499,26 +502,31 @@ def flutter_analysis(
     else:
         lo_p, lo_state = grid[i_cross - 1], states[i_cross - 1]
     hi_p, hi_state = grid[i_cross], states[i_cross]
-    lam_a, lam_b = lo_state.lam[branch], hi_state.lam[branch]
 
-    def re_at(p: float) -> float:
-        """Re(s) of the flutter branch at p, matched to the bracket ends' linear prediction."""
+    def re_at(p: float, j_branch: int) -> float:
+        """Re(s) of branch j_branch at p, matched to the bracket ends' linear prediction."""
         lam, _, per = tracker.eig(np.array([p]), vectors=False)
         lam = lam[0]
-        t = (p - lo_p) / (hi_p - lo_p)
-        pred = lam_a + t * (lam_b - lam_a)
+        lam_a, lam_b = lo_state.lam[j_branch], hi_state.lam[j_branch]
+        pred = lam_a + (p - lo_p) / (hi_p - lo_p) * (lam_b - lam_a)
         if math.isfinite(per[0]):
             lam = lam + 1j * per[0] * np.round((pred.imag - lam.imag) / per[0])
         j = int(np.nanargmin(np.abs(lam - pred)))
         return float(lam[j].real)
 
+    # every branch that first goes unstable inside this interval is refined; the lowest crossing wins
     message = ""
-    if re_at(lo_p) > 0:
-        p_f = lo_p
+    p_f, branch = math.inf, -1
+    scale = max(abs(hi_p), abs(lo_p), 1e-300)
+    for jb in np.nonzero(first == i_cross)[0]:
+        if re_at(lo_p, int(jb)) > 0:
+            pj = lo_p
+        else:
+            pj = brentq(re_at, lo_p, hi_p, args=(int(jb),), xtol=rtol * scale * 1e-3, rtol=max(rtol, 1e-14))
+        if pj < p_f:
+            p_f, branch = pj, int(jb)
+    if p_f == lo_p:
         message = "structural branch already unstable at the start of the sweep; "
-    else:
-        scale = max(abs(hi_p), abs(lo_p), 1e-300)
-        p_f = brentq(re_at, lo_p, hi_p, xtol=rtol * scale * 1e-3, rtol=max(rtol, 1e-14))
     lam_f, xs_f, per_f = tracker.eig(np.array([p_f]))
     st_f = tracker.step(lo_state, lo_p, p_f, lam_f[0], xs_f[0], float(per_f[0]))
     lam_fl = complex(st_f.lam[branch])

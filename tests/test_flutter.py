@@ -76,6 +76,8 @@ def k_method_flutter(ts: TypicalSection, cfun) -> tuple[float, float]:
 
 
 def run(ts: TypicalSection, dt_star: float, coupling: str = "tustin", **kw):
+    """Constant-density flutter search of ``ts`` with its discrete Jones model (tight brentq tolerance)."""
+    kw.setdefault("rtol", 1e-8)
     w, _ = modes(ts)
     return flutter_analysis(
         w, jones_discrete(ts, dt_star), ts.c_ref, 0.0, sweep="constant-density", coupling=coupling,

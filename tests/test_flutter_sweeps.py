@@ -24,20 +24,20 @@ SS = jones_discrete(TS, 0.05)
 
 @pytest.mark.parametrize("mach", [0.2, 0.3])
 def test_matched_constant_speed_constant_density_agree(mach):
-    rm = flutter_analysis(W, SS, TS.c_ref, mach, sweep="matched", altitude_range_m=(0.0, 25000.0))
+    rm = flutter_analysis(W, SS, TS.c_ref, mach, sweep="matched", altitude_range_m=(0.0, 25000.0), rtol=1e-7)
     assert rm.flutter_found and rm.sweep == "matched"
     st = isa(rm.altitude_m)
     # (the sweep uses the 10 m ISA table: 1e-7 of ambiance)
     assert rm.v_true_m_s == pytest.approx(mach * float(st.a), rel=1e-7)
     assert rm.rho_flutter == pytest.approx(float(st.rho), rel=1e-7)
     assert rm.q_flutter_pa == pytest.approx(0.5 * float(st.rho) * (mach * float(st.a)) ** 2, rel=1e-7)
-    rc = flutter_analysis(W, SS, TS.c_ref, mach, sweep="constant-speed", altitude_ref_m=rm.altitude_m)
+    rc = flutter_analysis(W, SS, TS.c_ref, mach, sweep="constant-speed", altitude_ref_m=rm.altitude_m, rtol=1e-7)
     assert rc.q_flutter_pa == pytest.approx(rm.q_flutter_pa, rel=1e-4)
     assert rc.rho_flutter == pytest.approx(rm.rho_flutter, rel=1e-4)
     # the paper's reporting convention for constant-speed sweeps: sqrt(2 q_f / rho_ref)
     assert rc.v_flutter_m_s == pytest.approx(math.sqrt(2 * rc.q_flutter_pa / rc.rho_ref), rel=1e-12)
     rd = flutter_analysis(W, SS, TS.c_ref, mach, sweep="constant-density", rho_ref=rc.rho_flutter,
-                          v_max=2.0 * rc.v_true_m_s)
+                          v_max=2.0 * rc.v_true_m_s, rtol=1e-7)
     assert rd.v_flutter_m_s == pytest.approx(rm.v_true_m_s, rel=1e-4)
     assert rd.omega_flutter_rad_s == pytest.approx(rm.omega_flutter_rad_s, rel=1e-4)
 
