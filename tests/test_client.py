@@ -1,0 +1,214 @@
+"""RomamsClient and FlutterProblem against a live embedded service (``romams serve`` subprocess).
+
+The service runs with an API key, a small synchronous-batch limit (so the 202-job path of batches is
+exercised) and a cropped-delta wing with a small basis and ROMs at two Mach numbers.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from live_service import ROOT, LiveService
+
+from client import FlutterProblem, JobError, RomamsClient, RomamsError
+
+KEY = "test-key-123"
+MACHS = (0.87, 0.95)
+PAPER_OPTIMUM = [0.1535, 0.6135, 0.8247, 0.0203, 1.966, 0.8787, 0.5972]
+CI = os.environ.get("CI", "").lower() == "true"
+
+
+@pytest.fixture(scope="module")
+def service(tmp_path_factory):
+    with LiveService(tmp_path_factory.mktemp("romams-client"), api_keys=KEY, batch_sync_max=4, batch_chunk=2) as s:
+        yield s
+
+
+@pytest.fixture(scope="module")
+def client(service):
+    with RomamsClient(service.url, api_key=KEY, timeout=60, retries=2, backoff=0.2) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def wing(client):
+    """Id of a cropped-delta wing with a basis (10 samples) and ROMs at MACHS."""
+    wid = client.ensure_wing("cd-client", "cropped-delta")
+    job = client.wait_job(client.start_basis(wid, samples=10, modes=4, seed=3), timeout_s=300, progress=False)
+    assert job["result"]["n_basis"] >= 1
+    client.train(wid, list(MACHS), options={"reduce_order": "auto"}, timeout_s=600, progress=False)
+    return wid
+
+
+def test_client_imports_only_httpx_tqdm_numpy() -> None:
+    code = ("import sys, client, client.http, client.problem, client.errors, client.openmdao\n"
+            "bad = sorted({m.split('.')[0] for m in sys.modules} & {'romams_core', 'romams', 'api', 'worker', "
+            "'scipy', 'sqlalchemy', 'fastapi', 'celery', 'matplotlib', 'openmdao', 'pydantic'})\n"
+            "print(','.join(bad))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""
+
+
+def test_health_and_api_key(service, client) -> None:
+    assert client.health()["status"] == "ok"
+    with RomamsClient(service.url, retries=0) as anonymous:
+        assert isinstance(anonymous.list_wings(), list)  # reading needs no key
+        with pytest.raises(RomamsError) as ei:
+            anonymous.create_wing("cropped-delta", "no-key")
+        assert (ei.value.status, ei.value.field) == (401, "authorization")
+    with RomamsClient(service.url, api_key="wrong", retries=0) as wrong:
+        with pytest.raises(RomamsError) as ei:
+            wrong.create_wing("cropped-delta", "bad-key")
+        assert (ei.value.status, ei.value.field) == (403, "authorization")
+
+
+def test_problem_details_carry_status_and_field(client, wing) -> None:
+    cases = [
+        (lambda: client.create_wing("no-such-template", "x"), 422, "template"),
+        (lambda: client.get_wing("no-such-wing"), 404, "wing"),
+        (lambda: client.evaluate(wing, [0.9, 0.5, 0.7, 0.05, 1.0, 1.0, 0.8]), 422, "design.x1"),
+        (lambda: client.evaluate(wing, {"x1": 0.3}), 422, "design"),
+        (lambda: client.evaluate_batch(wing, [PAPER_OPTIMUM, PAPER_OPTIMUM[:6]]), 422, "designs[1]"),
+        (lambda: client.evaluate(wing, None, machs=[0.5]), 422, "machs[0]"),
+        (lambda: client.start_training(wing, 1.2), 422, "mach"),
+        (lambda: client.start_basis(wing, samples=1), 422, "samples"),
+        (lambda: client.get_job("no-such-job"), 404, "job_id"),
+    ]
+    for call, status, field in cases:
+        with pytest.raises(RomamsError) as ei:
+            call()
+        err = ei.value
+        assert err.status == status, err
+        assert err.field is not None and err.field.split(".")[0] == field.split(".")[0], err
+        if "." in field or "[" in field:
+            assert err.field == field, err
+        assert err.detail and err.body["status"] == status
+
+
+def test_ensure_wing_is_idempotent(client) -> None:
+    a = client.ensure_wing("cd-ensure", "cropped-delta")
+    assert client.ensure_wing("cd-ensure", "cropped-delta") == a
+    info = client.get_wing("cd-ensure")
+    assert info["id"] == a and [v["name"] for v in info["design_variables"]] == [f"x{i}" for i in range(1, 8)]
+
+
+def test_training_is_listed_and_resubmission_returns_existing(client, wing) -> None:
+    roms = client.list_roms(wing)
+    assert sorted(round(r["mach"], 6) for r in roms) == list(MACHS)
+    items = client.start_training(wing, list(MACHS), options={"reduce_order": "auto"})
+    assert all(i["existing"] and i["rom_id"] is not None for i in items)
+    assert sorted(client.get_wing(wing)["trained_machs"]) == list(MACHS)
+
+
+def test_failed_job_raises_job_error(client, wing) -> None:
+    items = client.start_training(wing, 0.8, options={"nrmse_tol": 1e-12})
+    with pytest.raises(JobError) as ei:
+        client.wait_job(items[0]["job_id"], timeout_s=300, progress=False)
+    assert ei.value.job["status"] == "failed"
+    assert "NRMSE" in ei.value.detail
+
+
+def test_evaluate_baseline_vg_and_plots(client, wing) -> None:
+    out = client.evaluate(wing, None)
+    assert out["mass_kg"] == pytest.approx(0.24, rel=0.02)  # calibrated bare plate (paper: 0.24 kg)
+    f = out["frequencies_hz"]
+    assert f[:3] == pytest.approx([26.7, 88.2, 131.8], rel=0.03)  # measured (Schairer & Hand)
+    assert len(out["mac"]) == 4 and min(out["mac"]) > 0.9
+    assert [r["mach"] for r in out["results"]] == list(MACHS)
+    for r in out["results"]:
+        assert {"mach", "v_flutter_m_s", "omega_flutter_rad_s", "q_flutter_pa", "sdoff", "flutter_mode",
+                "safe_altitude_m"} <= set(r)
+    vg = client.vg_data(out["evaluation_id"])
+    assert [m["mach"] for m in vg["machs"]] == list(MACHS)
+    first = vg["machs"][0]
+    assert len(first["v_m_s"]) == len(first["g"]) >= 10
+    png = client.plot(out["evaluation_id"], "png")
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
+    svg = client.plot(out["evaluation_id"], "svg", kind="envelope")
+    assert b"<svg" in svg[:2000]
+
+
+def _same_result(a: dict, b: dict) -> None:
+    """Two result dicts of one design agree (the evaluation is deterministic)."""
+    assert a["mass_kg"] == pytest.approx(b["mass_kg"], rel=1e-12)
+    assert a["mac"] == pytest.approx(b["mac"], rel=1e-9)
+    for ra, rb in zip(a["results"], b["results"], strict=True):
+        for key in ("v_flutter_m_s", "omega_flutter_rad_s", "safe_altitude_m"):
+            if ra[key] is None:
+                assert rb[key] is None
+            else:
+                assert ra[key] == pytest.approx(rb[key], rel=1e-8), key
+        assert ra["sdoff"] == rb["sdoff"]
+
+
+def test_batch_sync_and_job_paths_agree_with_single_evaluations(client, wing) -> None:
+    rng = np.random.default_rng(7)
+    info = client.get_wing(wing)
+    lo = np.array([v["lower"] for v in info["design_variables"]])
+    hi = np.array([v["upper"] for v in info["design_variables"]])
+    designs = lo + rng.random((6, lo.size)) * (hi - lo)
+    small = client.evaluate_batch(wing, designs[:3])  # <= batch_sync_max: answered synchronously
+    large = client.evaluate_batch(wing, designs)  # > batch_sync_max: 202 + job, waited for by the client
+    assert len(small) == 3 and len(large) == 6
+    for a, b in zip(small, large[:3], strict=True):
+        _same_result(a, b)
+    single = client.evaluate(wing, designs[4], store=False)
+    _same_result(single, large[4])
+    split = client.evaluate_batch(wing, designs, max_per_request=4)  # two requests, order kept
+    for a, b in zip(split, large, strict=True):
+        _same_result(a, b)
+    by_name = client.evaluate(wing, dict(zip([f"x{i}" for i in range(1, 8)], designs[4], strict=True)), store=False)
+    _same_result(by_name, large[4])
+
+
+def test_flutter_problem_is_one_batch_per_call_with_paper_penalty(client, wing) -> None:
+    mu = 5.0
+    prob = FlutterProblem(client, wing, mu=mu)
+    assert prob.names == [f"x{i}" for i in range(1, 8)] and list(prob.machs) == list(MACHS)
+    rng = np.random.default_rng(11)
+    x = prob.denormalize(rng.random((4, prob.dim)))
+    sent = client.requests_sent
+    obj = prob(x)
+    assert client.requests_sent - sent == 1 and prob.n_calls == 1 and prob.n_evaluations == 4
+    assert obj.shape == (4,)
+    raw = client.evaluate_batch(wing, x)
+    for i, r in enumerate(raw):
+        feasible = bool(r["envelope_ok"]) and not r["sdoff"] and min(r["mac"]) >= 0.98
+        assert obj[i] == pytest.approx(r["mass_kg"] + mu * (not feasible), rel=1e-12)
+    cons = prob.constraints(x)  # same population: no new request
+    assert prob.n_calls == 1
+    assert cons["envelope_margin_m"].shape == (4, 2) and cons["feasible"].dtype == bool
+    assert cons["min_mac"] == pytest.approx([min(r["mac"]) for r in raw], rel=1e-12)
+    one = prob(x[0])
+    assert isinstance(one, float) and one == pytest.approx(obj[0], rel=1e-12)
+    assert prob.for_scipy(x.T) == pytest.approx(obj, rel=1e-12)  # scipy's vectorized layout [d, S]
+    with pytest.raises(ValueError, match="x: expected"):
+        prob(np.ones((3, 5)))
+
+
+def test_openmdao_component(client, wing) -> None:
+    try:
+        import openmdao.api as om
+    except ImportError:
+        if CI:
+            raise
+        pytest.skip("openmdao is not installed")
+    from client.openmdao import FlutterComponent
+
+    prob = FlutterProblem(client, wing, mu=5.0)
+    model = om.Problem()
+    model.model.add_subsystem("flutter", FlutterComponent(problem=prob), promotes=["*"])
+    model.setup()
+    model.set_val("x", np.array(PAPER_OPTIMUM))
+    model.run_model()
+    ev = prob.evaluate(np.array(PAPER_OPTIMUM))
+    assert model.get_val("mass")[0] == pytest.approx(ev.mass_kg[0], rel=1e-12)
+    assert model.get_val("objective")[0] == pytest.approx(ev.objective[0], rel=1e-12)
+    assert model.get_val("envelope_margin").shape == (2,)
+    assert model.get_val("feasible")[0] == float(ev.feasible[0])
+    assert math.isfinite(model.get_val("min_mac")[0])
