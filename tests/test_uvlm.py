@@ -174,3 +174,19 @@ def test_warning_above_mach_09_and_input_errors():
         solver.simulate(mesh, shapes[:-1], np.zeros((10, 3)), 0.5, 0.1)
     with pytest.raises(ValueError, match="dt_star"):
         solver.simulate(mesh, shapes, np.zeros((10, 3)), 0.5, -0.1)
+
+
+def test_gac_converges_with_panel_count_on_cropped_delta_planform():
+    # successive refinements of the lattice change a GAC matrix at k = 0.3 less and less (M = 0.87)
+    pf0 = Planform(root_chord=0.37, tip_chord=0.075, semispan=0.26, sweep_le=math.radians(43), n_chord=5, n_span=7)
+    out = []
+    for r in (1, 2, 4):
+        pf = Planform(pf0.root_chord, pf0.tip_chord, pf0.semispan, pf0.sweep_le, n_chord=5 * r, n_span=7 * r)
+        mesh = standard_mesh(pf)
+        xi, eta = pf.to_xi_eta(mesh.x, mesh.y)
+        shapes = np.column_stack([eta**2, eta**2 * (mesh.x / pf.c_ref - 0.5)])
+        out.append(frequency_response(mesh, shapes, 0.87, [0.3], dt_star=1.0 / pf.n_chord, wake_chords=10.0)[0])
+    d1 = np.abs(out[1] - out[0]).max()
+    d2 = np.abs(out[2] - out[1]).max()
+    assert d2 < 0.6 * d1
+    assert d2 < 0.03 * np.abs(out[2]).max()
