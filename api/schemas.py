@@ -126,4 +126,5 @@ class JobOut(BaseModel):
     wing_id: int | None = None
     parent_id: str | None = None
     deliveries: int = 0
+    worker: str | None = None
     params: dict[str, Any] = Field(default_factory=dict)

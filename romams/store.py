@@ -16,6 +16,8 @@ import fcntl
 import hashlib
 import json
 import math
+import os
+import socket
 import threading
 import uuid
 from collections.abc import Iterable, Iterator, Mapping, Sequence
@@ -188,6 +190,7 @@ def job_dict(job: Job) -> dict[str, Any]:
         "wing_id": job.wing_id,
         "parent_id": job.parent_id,
         "deliveries": job.deliveries,
+        "worker": job.worker,
         "created_at": _iso(job.created_at),
         "started_at": _iso(job.started_at),
         "finished_at": _iso(job.finished_at),
@@ -484,9 +487,10 @@ class Store:
         """Mark a delivery: queued|running -> running, deliveries += 1; (ok, deliveries) with ok False when the
         job is final, absent or over the redelivery cap (then it is failed with the reason)."""
         now = utcnow()
+        where = f"{socket.gethostname()}:{os.getpid()}"
         with self.session() as s:
             n = s.execute(update(Job).where(Job.id == job_id, Job.status.in_(ACTIVE_STATUSES))
-                          .values(status="running", deliveries=Job.deliveries + 1,
+                          .values(status="running", deliveries=Job.deliveries + 1, worker=where,
                                   started_at=func.coalesce(Job.started_at, now), updated_at=now)).rowcount
             deliveries = s.scalar(select(Job.deliveries).where(Job.id == job_id)) or 0
         if n == 0:

@@ -1,0 +1,141 @@
+"""Fixtures of the service tests: real Celery worker subprocesses, fresh PostgreSQL databases, Redis."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+CI = os.environ.get("CI", "").lower() == "true"
+PG_ADMIN_URL = os.environ.get("ROMAMS_TEST_PG_URL", "postgresql://postgres@127.0.0.1:5432/test")
+REDIS_URL = os.environ.get("ROMAMS_TEST_REDIS_URL", "redis://127.0.0.1:6379")
+
+
+def service_env(data_dir: Path, **settings: object) -> dict[str, str]:
+    """Environment for a worker subprocess: this test's data dir and settings, nothing inherited from ROMAMS_*."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ROMAMS_")}
+    env["ROMAMS_DATA_DIR"] = str(data_dir)
+    env.update({f"ROMAMS_{k.upper()}": str(v) for k, v in settings.items()})
+    env["PYTHONPATH"] = str(ROOT)
+    return env
+
+
+class WorkerProcess:
+    """A real ``celery worker`` subprocess of the service (prefork pool)."""
+
+    def __init__(self, env: dict[str, str], log: Path, concurrency: int = 2) -> None:
+        self.log_path = log
+        self._log = open(log, "ab")  # noqa: SIM115 - closed in stop()
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "celery", "-A", "worker.celery_app", "worker", "-Q", "training,evaluation",
+             "--concurrency", str(concurrency), "--loglevel", "info", "--without-gossip", "--without-mingle",
+             "--hostname", f"test-{uuid.uuid4().hex[:6]}@%h"],
+            cwd=ROOT, env=env, stdout=self._log, stderr=subprocess.STDOUT, start_new_session=True)
+
+    def pool_pids(self) -> list[int]:
+        """Pids of the prefork pool children."""
+        path = Path(f"/proc/{self.proc.pid}/task/{self.proc.pid}/children")
+        try:
+            return [int(p) for p in path.read_text().split()]
+        except OSError:
+            return []
+
+    def kill_all(self) -> None:
+        """SIGKILL the worker and its pool at once (a machine dying)."""
+        pids = self.pool_pids()
+        os.kill(self.proc.pid, signal.SIGKILL)
+        for p in pids:
+            try:
+                os.kill(p, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        self.proc.wait(timeout=10)
+
+    def stop(self) -> None:
+        """Warm shutdown (SIGTERM), then SIGKILL of this worker's process group if it lingers."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait(timeout=10)
+        for p in self.pool_pids():
+            try:
+                os.kill(p, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        self._log.close()
+
+    def log_tail(self, n: int = 4000) -> str:
+        """End of the worker log (for assertion messages)."""
+        return self.log_path.read_text(errors="replace")[-n:]
+
+
+def wait_job(client, job_id: str, timeout_s: float = 240.0, until=("succeeded", "failed", "cancelled")) -> dict:
+    """Poll GET /api/v1/jobs/{id} until its status is in ``until``."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        job = client.get(f"/api/v1/jobs/{job_id}").json()
+        if job["status"] in until:
+            return job
+        if time.monotonic() > deadline:
+            raise AssertionError(f"job {job_id} still {job['status']} after {timeout_s} s: {job}")
+        time.sleep(0.1)
+
+
+def _unavailable(what: str, exc: Exception) -> None:
+    """Skip locally, fail under CI=true."""
+    msg = f"{what} not reachable: {exc}"
+    if CI:
+        pytest.fail(msg + " (CI=true: services tests must not skip)")
+    pytest.skip(msg)
+
+
+@pytest.fixture()
+def pg_url() -> Iterator[str]:
+    """URL of a fresh, empty PostgreSQL database (dropped afterwards)."""
+    try:
+        import psycopg
+
+        admin = psycopg.connect(PG_ADMIN_URL, autocommit=True, connect_timeout=5)
+    except Exception as exc:  # noqa: BLE001
+        _unavailable("PostgreSQL at 127.0.0.1:5432", exc)
+    name = f"romams_test_{uuid.uuid4().hex[:10]}"
+    admin.execute(f'CREATE DATABASE "{name}"')
+    base = PG_ADMIN_URL.rsplit("/", 1)[0].replace("postgresql://", "postgresql+psycopg://", 1)
+    try:
+        yield f"{base}/{name}"
+    finally:
+        from romams.store import dispose_engines
+
+        dispose_engines()
+        admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+        admin.close()
+
+
+@pytest.fixture()
+def redis_url() -> Iterator[str]:
+    """A Redis broker URL on a database number of its own, flushed afterwards."""
+    try:
+        import redis
+
+        r0 = redis.Redis.from_url(REDIS_URL, socket_connect_timeout=5)
+        r0.ping()
+    except Exception as exc:  # noqa: BLE001
+        _unavailable("Redis at 127.0.0.1:6379", exc)
+    db = 8 + uuid.uuid4().int % 8
+    r = redis.Redis.from_url(f"{REDIS_URL}/{db}")
+    r.flushdb()
+    try:
+        yield f"{REDIS_URL}/{db}"
+    finally:
+        r.flushdb()
