@@ -44,6 +44,12 @@ def structure_modal(wing_id: int, design: list[float] | None, modes_id: int | No
     return modal_analysis(wing, design=None if design is None else np.asarray(design, dtype=float), n_modes=n_modes)
 
 
+def _zeta(wing: Any) -> float | None:
+    """The wing's modal damping ratio for the flutter analysis (None = undamped), as the CLI applies it."""
+    z = float(getattr(wing, "modal_damping", 0.0) or 0.0)
+    return z if z > 0 else None
+
+
 def _roms(rom_ids: list[list[float]]) -> dict[float, Any]:
     """{mach: TrainedRom} of the (mach, rom_id) pairs (cached)."""
     return {float(m): load_rom(int(rid)) for m, rid in rom_ids}
@@ -60,7 +66,8 @@ def baseline_evaluation(wing_id: int, basis_id: int, rom_ids: list[list[float]])
     def load() -> Any:
         basis = load_basis(basis_id)
         modal = structure_modal(wing_id, None, None, int(basis.n_modes))
-        return evaluate_structure(modal, basis.shapes, _roms(rom_ids), mac_threshold=float(basis.mac_threshold))
+        return evaluate_structure(modal, basis.shapes, _roms(rom_ids), mac_threshold=float(basis.mac_threshold),
+                                  zeta=_zeta(wing))
 
     key = ("baseline", int(wing_id), int(basis_id), tuple((float(m), int(r)) for m, r in rom_ids))
     return OBJECTS.get_or_load(key, load)
@@ -78,7 +85,7 @@ def evaluate(wing_id: int, basis_id: int, rom_ids: list[list[float]], design: li
     modal = structure_modal(wing_id, design, modes_id, int(basis.n_modes))
     base = baseline_evaluation(wing_id, basis_id, rom_ids)
     result = evaluate_structure(modal, basis.shapes, _roms(rom_ids), mac_threshold=float(basis.mac_threshold),
-                                benchmark=None if base is None else base.envelope)
+                                benchmark=None if base is None else base.envelope, zeta=_zeta(load_wing(wing_id)))
     return summarize(result, external=modes_id is not None), result
 
 
