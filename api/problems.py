@@ -45,7 +45,10 @@ def from_value_error(exc: ValueError, prefix: str = "") -> Problem:
     head, sep, _ = text.partition(":")
     field = head.strip() if sep and " " not in head.strip() else None
     if field and prefix:
-        field = f"{prefix}.{field}" if not field.startswith(prefix) else field
+        if field in ("design", "modes", "definition", "template", "wing", "file", "bdf", "json", "npz", "nastran"):
+            field = prefix
+        elif not field.startswith(prefix):
+            field = f"{prefix}.{field}"
     return Problem(422, f"{prefix + ': ' if prefix and not field else ''}{text}", field or prefix or None)
 
 
@@ -65,8 +68,12 @@ def problem_response(status: int, detail: str, *, title: str | None = None, fiel
 
 def _loc(loc: tuple[Any, ...] | list[Any]) -> str:
     """Dotted field path of a pydantic error location (without the leading 'body')."""
-    parts = [str(p) for p in loc if p not in ("body", "query", "path")]
-    return ".".join(parts) or "body"
+    out = ""
+    for p in loc:
+        if p in ("body", "query", "path", "header") or (isinstance(p, str) and ("[" in p or p.startswith("function"))):
+            continue  # location roots and pydantic's union-member tags
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out or "body"
 
 
 def install(app: FastAPI) -> None:
@@ -80,7 +87,9 @@ def install(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, exc: RequestValidationError) -> JSONResponse:
         errors = [{"field": _loc(e.get("loc", ())), "reason": e.get("msg", "invalid")} for e in exc.errors()]
-        first = errors[0] if errors else {"field": "body", "reason": "invalid request"}
+        # the most specific error first (for a union such as design = dict | list, the branch that got deepest)
+        ranked = sorted(range(len(errors)), key=lambda i: -len(exc.errors()[i].get("loc", ())))
+        first = errors[ranked[0]] if errors else {"field": "body", "reason": "invalid request"}
         return problem_response(422, f"{first['field']}: {first['reason']}", field=first["field"],
                                 instance=str(request.url.path), extra={"errors": errors})
 

@@ -81,7 +81,7 @@ class _Heartbeat:
     def _run(self, store: Store, job_id: str, period_s: float) -> None:
         while not self._stop.wait(period_s):
             try:
-                if not store.heartbeat(job_id):
+                if not store.heartbeat(job_id) and not store.update_job(job_id, expect=("queued",), status="running"):
                     return
             except Exception:  # a transient database error must not kill the task
                 continue
@@ -99,15 +99,23 @@ def progress_callback(store: Store, job_id: str, lo: float = 0.0, hi: float = 1.
     """Progress reporter mapping 0..1 onto lo..hi of the job; raises Cancelled when the job is no longer running."""
     last = [0.0]
 
+    def still_mine() -> None:
+        """Raise Cancelled unless the job is running; a job the sweeper re-queued while we live is taken back."""
+        status = store.job_status(job_id)
+        if status == "queued" and store.update_job(job_id, expect=("queued",), status="running"):
+            return
+        if status != "running":
+            raise Cancelled(f"job {job_id} is {status}")
+
     def report(fraction: float, message: str = "") -> None:
         now = time.monotonic()
         if now - last[0] < min_interval_s and fraction < 1.0:
-            if store.job_status(job_id) != "running":
-                raise Cancelled(f"job {job_id} is no longer running")
+            still_mine()
             return
         last[0] = now
         if not store.set_progress(job_id, lo + (hi - lo) * float(fraction), message):
-            raise Cancelled(f"job {job_id} is no longer running")
+            still_mine()
+            store.set_progress(job_id, lo + (hi - lo) * float(fraction), message)
 
     return report
 

@@ -168,6 +168,9 @@ def assemble_batch(parent_id: str) -> None:
     """After a chunk: update the batch's progress; when all chunks succeeded, the claimer writes the results."""
     s = store()
     kids = s.children(parent_id)
+    if any(k["status"] == "cancelled" for k in kids):
+        s.finish_job(parent_id, "cancelled", message="a chunk was cancelled")
+        return
     failed = [k for k in kids if k["status"] == "failed"]
     if failed:
         s.finish_job(parent_id, "failed", error=f"chunk {failed[0]['params'].get('index')}: {failed[0]['error']}")

@@ -105,6 +105,9 @@ def _after_chunk(parent_id: str, finalize_task: str, lo: float, hi: float) -> No
     """Update a fan-out parent after one of its chunks ended; the last one sends ``finalize_task``."""
     s = store()
     kids = s.children(parent_id)
+    if any(k["status"] == "cancelled" for k in kids):
+        s.finish_job(parent_id, "cancelled", message="a chunk was cancelled")
+        return
     failed = [k for k in kids if k["status"] == "failed"]
     if failed:
         first = failed[0]

@@ -23,7 +23,7 @@ from tests.service.conftest import WorkerProcess, service_env, wait_job
 
 MACHS = [0.79, 0.87]
 DESIGN = {"x1": 0.3, "x2": 0.4, "x3": 0.7, "x4": 0.05, "x5": 1.0, "x6": 1.0, "x7": 0.8}
-FAST = {"heartbeat_s": 0.5, "job_stale_s": 4.0, "batch_sync_max": 4, "sync_timeout_s": 120}
+FAST = {"heartbeat_s": 0.5, "job_stale_s": 8.0, "batch_sync_max": 4, "sync_timeout_s": 120}
 
 
 @pytest.fixture(scope="module")
@@ -246,3 +246,36 @@ def test_killed_worker_machine_job_is_resent_by_the_sweeper(svc):
     job = wait_job(svc.client, jid, 240)
     assert job["status"] == "succeeded", (job, svc.worker.log_tail())
     assert job["deliveries"] >= 2
+
+
+def test_flutter_bad_input_is_rejected_and_stores_nothing(svc):
+    from tests.service.test_bad_input import problem
+
+    c, url = svc.client, f"/api/v1/wings/{svc.wing_id}/flutter"
+    n_eval = len(c.get("/api/v1/evaluations", params={"limit": 500}).json())
+    n_jobs = len(c.get("/api/v1/jobs", params={"limit": 1000, "include_children": True}).json())
+    problem(c.post(url, json={"design": DESIGN, "machs": [0.5]}), 422, "machs[0]", "not trained")
+    problem(c.post(url, json={"design": DESIGN, "machs": [0.79, 0.79]}), 422, "machs", "duplicates")
+    problem(c.post(url, json={"design": {**DESIGN, "x1": 5.0}}), 422, "design.x1", "outside its bounds")
+    problem(c.post(url, json={"design": {**DESIGN, "x9": 1.0}}), 422, "design", "unknown variable")
+    problem(c.post(url, json={"design": [0.3, 0.4]}), 422, "design", "expected 7 values")
+    problem(c.post(url, content=b'{"design": [NaN, 0.4, 0.7, 0.05, 1, 1, 0.8]}',
+                   headers={"content-type": "application/json"}), 422, "design[0]", "finite")
+    problem(c.post(url, content=b'{"design": {"x1": Infinity}}', headers={"content-type": "application/json"}),
+            422, "design.x1", "finite")
+    problem(c.post(url, json={"design": DESIGN, "modes_id": 1}), 422, "body", "at most one")
+    problem(c.post(url, json={"modes_id": 9999}), 404, "modes_id")
+    problem(c.post(url, json={"design": DESIGN, "method": "rom-pms"}), 422, "method")
+    nodes = [[x, y, 0.0] for x in (0.0, 0.2, 0.4) for y in (0.0, 0.3, 0.6)]
+    problem(c.post(url, json={"modes": {"nodes": nodes, "shapes": [[0.0] * 5], "frequencies_hz": [10.0]}}),
+            422, "modes.shapes")
+    far = [[1000 * x, 1000 * y, 0.0] for x, y, _ in nodes]  # millimetres instead of metres
+    problem(c.post(url, json={"modes": {"nodes": far, "shapes": [[1.0] * 9], "frequencies_hz": [10.0]}}),
+            422, "modes.nodes", "planform")
+    batch = f"{url}/batch"
+    problem(c.post(batch, json={"designs": []}), 422, "designs")
+    problem(c.post(batch, json={"designs": [DESIGN, {**DESIGN, "x6": 0.1}]}), 422, "designs[1].x6", "bounds")
+    problem(c.post(batch, json={"designs": [DESIGN] * (svc.settings.batch_max + 1)}), 413, "designs", "at most")
+    assert len(c.get("/api/v1/evaluations", params={"limit": 500}).json()) == n_eval
+    assert len(c.get("/api/v1/jobs", params={"limit": 1000, "include_children": True}).json()) == n_jobs
+    assert c.post(url, json={"design": DESIGN}).status_code == 200  # still serving
