@@ -253,18 +253,19 @@ def _initial_branches(omega: np.ndarray, zeta: np.ndarray) -> _Branches:
 
 def _assign(
     prev: _Branches, lam_c: np.ndarray, a_c: np.ndarray, period: float, weight: float, omega: np.ndarray
-) -> tuple[_Branches, float, float]:
+) -> tuple[_Branches, float, float, float]:
     """One tracking step: Hungarian assignment of candidates (s, normalized structural vectors) to branches.
 
     Eigenvalue distances are relative to max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a
-    finite scale). Returns the new branch state, the smallest assigned MAC and the largest relative jump.
+    finite scale). Returns the new branch state, the smallest assigned MAC, the largest relative jump and
+    the smallest margin of the next-best candidate over twice the assigned cost (< 0: near-tie).
     """
     k = prev.lam.size
     if math.isfinite(period):
         m = np.round((prev.lam.imag[:, None] - lam_c.imag[None, :]) / period)
         s = lam_c[None, :] + (1j * period) * m
     else:
-        s = np.repeat(lam_c[None, :], k, axis=0)
+        s = lam_c[None, :]
     mac = np.abs(prev.vec.conj().T @ a_c) ** 2
     dist = np.abs(s - prev.lam[:, None]) / np.maximum(np.abs(prev.lam), omega)[:, None]
     cost = (1.0 - mac) + weight * dist
@@ -272,7 +273,18 @@ def _assign(
     rows, cols = linear_sum_assignment(cost)
     cols = cols[np.argsort(rows)]
     idx = np.arange(k)
-    return _Branches(s[idx, cols], a_c[:, cols]), float(mac[idx, cols].min()), float(dist[idx, cols].max())
+    chosen = cost[idx, cols]
+    new_lam = s[idx, cols] if s.shape[0] == k else lam_c[cols]
+    # near-tie: the runner-up costs less than twice the assigned candidate (+0.002); a smaller step, where
+    # the true continuation's cost tends to 0, separates them (e.g. an aero pole beside a mode). Only
+    # lightly damped oscillatory branches are checked: a heavily damped pair splitting into two real
+    # roots is a genuine, harmless tie.
+    osc = (prev.lam.imag > 0.05 * omega) & (-prev.lam.real < 0.25 * np.abs(prev.lam))
+    gap = np.inf
+    if osc.any() and cost.shape[1] > 1:
+        cost[idx, cols] = np.inf
+        gap = float(np.min((cost.min(axis=1) - 2.0 * chosen - 0.002)[osc]))
+    return _Branches(new_lam, a_c[:, cols]), float(mac[idx, cols].min()), float(dist[idx, cols].max()), gap
 
 
 class _Tracker:
@@ -296,13 +308,17 @@ class _Tracker:
 
     def step(self, prev: _Branches, p0: float, p1: float, lam1: np.ndarray, xs1: np.ndarray, per1: float,
              depth: int = 0) -> _Branches:
-        """Track from p0 (state prev) to p1 (given eigen-data), halving the step when ambiguous."""
-        new, mac_min, jump = _assign(prev, lam1, xs1, per1, self.weight, self.m.omega)
-        if (mac_min < 0.8 or jump > 1.0) and depth < 6:
-            pm = 0.5 * (p0 + p1)
-            lam_m, xs_m, per_m = self.eig(np.array([pm]))
-            mid = self.step(prev, p0, pm, lam_m[0], xs_m[0], float(per_m[0]), depth + 1)
-            return self.step(mid, pm, p1, lam1, xs1, per1, depth + 1)
+        """Track from p0 (state prev) to p1 (given eigen-data); an ambiguous step is split in four sub-steps
+        (one batched eigen-solve of the three interior points), at most twice (1/16 of a step)."""
+        new, mac_min, jump, gap = _assign(prev, lam1, xs1, per1, self.weight, self.m.omega)
+        if (mac_min < 0.8 or jump > 1.0 or gap < 0.0) and depth < 2:
+            ps = p0 + (p1 - p0) * np.array([0.25, 0.5, 0.75])
+            lam_m, xs_m, per_m = self.eig(ps)
+            state, pa = prev, p0
+            for i in range(3):
+                state = self.step(state, pa, ps[i], lam_m[i], xs_m[i], float(per_m[i]), depth + 1)
+                pa = ps[i]
+            return self.step(state, pa, p1, lam1, xs1, per1, depth + 1)
         return new
 
 
@@ -505,6 +521,10 @@ def flutter_analysis(
 
     def re_at(p: float, j_branch: int) -> float:
         """Re(s) of branch j_branch at p, matched to the bracket ends' linear prediction."""
+        if p == lo_p:  # the bracket ends are known from the tracking
+            return float(lo_state.lam[j_branch].real)
+        if p == hi_p:
+            return float(hi_state.lam[j_branch].real)
         lam, _, per = tracker.eig(np.array([p]), vectors=False)
         lam = lam[0]
         lam_a, lam_b = lo_state.lam[j_branch], hi_state.lam[j_branch]
