@@ -121,3 +121,17 @@ def test_evaluate_flags_poor_mode_fit():
     ev = evaluate_structure(modal, basis, {0.3: SimpleNamespace(ss=rom_ss, c_ref=ts.c_ref)})
     assert not ev.mac_ok and not ev.constraints_ok and ev.min_mac < 0.98
     assert "MAC" in ev.message
+
+
+def test_evaluation_serializes_round_trip():
+    """StructureEvaluation (nested FlutterResult / Envelope, None, inf) survives the project's NPZ+JSON serializer."""
+    from romams.serialize import dumps, loads
+
+    basis = np.eye(2)
+    modal, rom = _typical_structure(TypicalSection(), basis)
+    ev = evaluate_structure(modal, basis, {0.2: rom, 0.3: rom})
+    back = loads(*dumps(ev))
+    assert back.flutter[1].q_flutter_pa == ev.flutter[1].q_flutter_pa
+    np.testing.assert_array_equal(back.flutter[0].g, ev.flutter[0].g)
+    np.testing.assert_array_equal(back.envelope.safe_altitude_m, ev.envelope.safe_altitude_m)
+    assert back.comparison is None and back.envelope.status == ev.envelope.status
