@@ -1,0 +1,26 @@
+# romams service image: API (uvicorn api.app:app), workers (celery -A worker.celery_app) and migrations (alembic).
+FROM python:3.11-slim
+
+ENV PYTHONDONTWRITEBYTECODE=1 \
+    PYTHONUNBUFFERED=1 \
+    PIP_NO_CACHE_DIR=1 \
+    MPLBACKEND=Agg \
+    ROMAMS_DATA_DIR=/data
+
+RUN apt-get update && apt-get install -y --no-install-recommends curl && rm -rf /var/lib/apt/lists/*
+
+WORKDIR /app
+COPY pyproject.toml README.md alembic.ini ./
+COPY romams_core ./romams_core
+COPY romams ./romams
+COPY api ./api
+COPY worker ./worker
+COPY client ./client
+COPY migrations ./migrations
+RUN pip install . 'flower>=2.0' && (pip install --no-deps 'pyNastran==1.4.1' cpylog || true)
+
+RUN useradd --create-home --uid 1000 romams && mkdir -p /data && chown romams /data
+USER romams
+VOLUME ["/data"]
+EXPOSE 8000
+CMD ["uvicorn", "api.app:app", "--host", "0.0.0.0", "--port", "8000"]
