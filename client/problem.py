@@ -52,17 +52,28 @@ class FlutterProblem:
     """Penalty objective mass + mu * C(x) of ``wing`` on the service behind ``client``.
 
     ``machs``: Mach numbers to evaluate (default: all trained for the latest basis). ``mu``: penalty (kg).
-    ``mac_threshold``: smallest acceptable mode-fit MAC. Call it with X [pop, d] (objective [pop]) or
-    X [d] (a float); :meth:`for_scipy` takes scipy's vectorized layout [d, pop]. Every evaluated batch is
-    appended to ``history``.
+    ``mac_threshold``: smallest acceptable mode-fit MAC. ``envelope_tol_m``: a safe altitude up to this
+    much above the baseline's still counts as "not above" (the flutter search is converged to ~1e-12
+    relative, so the baseline compared with itself differs by ~1e-8 m). ``penalty``: "binary" (the
+    paper: C = 1 for any violation) or "graded" (C = 1 + the violations: envelope excess in km, MAC
+    deficit / 0.02, number of SDOFF flags; guides a population that has no feasible member yet).
+    Call it with X [pop, d] (objective [pop]) or X [d] (a float); :meth:`for_scipy` takes scipy's
+    vectorized layout [d, pop]. Every evaluated batch is appended to ``history``.
     """
 
     def __init__(self, client: RomamsClient, wing: WingRef, machs: Sequence[float] | None = None, mu: float = 10.0,
-                 mac_threshold: float = 0.98, basis_id: int | None = None, keep_history: bool = True) -> None:
+                 mac_threshold: float = 0.98, basis_id: int | None = None, keep_history: bool = True,
+                 envelope_tol_m: float = 0.01, penalty: str = "binary") -> None:
         if not (math.isfinite(mu) and mu > 0):
             raise ValueError(f"mu: must be a finite penalty > 0 (kg), got {mu!r}")
         if not 0.0 < mac_threshold <= 1.0:
             raise ValueError(f"mac_threshold: must be in (0, 1], got {mac_threshold!r}")
+        if not (math.isfinite(envelope_tol_m) and envelope_tol_m >= 0):
+            raise ValueError(f"envelope_tol_m: must be a finite altitude >= 0 (m), got {envelope_tol_m!r}")
+        if penalty not in ("binary", "graded"):
+            raise ValueError(f"penalty: must be 'binary' or 'graded', got {penalty!r}")
+        self.envelope_tol_m = float(envelope_tol_m)
+        self.penalty = penalty
         self.client = client
         info = client.get_wing(wing)
         self.wing_id = int(info["id"])
@@ -151,13 +162,22 @@ class FlutterProblem:
                     wf[i, j] = _num(p.get("omega_flutter_rad_s"))
             if r.get("envelope_margin_m") is not None:
                 margin[i] = np.asarray(r["envelope_margin_m"], dtype=float)
-            env_ok[i] = True if r.get("envelope_ok") is None else bool(r["envelope_ok"])
+            if r.get("envelope_ok") is None:  # the wing has no baseline: nothing to compare with
+                env_ok[i] = True
+            else:
+                env_ok[i] = bool(r["envelope_ok"]) or bool(np.all(margin[i] >= -self.envelope_tol_m))
             sdoff[i] = bool(r.get("sdoff")) or any(bool(p.get("sdoff")) for p in per.values())
             mac = r.get("mac")
             min_mac[i] = float(np.min(mac)) if mac else _num(r.get("min_mac"))
         ok_mac = np.nan_to_num(min_mac, nan=-1.0) >= self.mac_threshold
         feasible = env_ok & ~sdoff & ok_mac & np.isfinite(mass)
-        objective = np.where(np.isfinite(mass), np.nan_to_num(mass) + self.mu * (~feasible), 2.0 * self.mu)
+        c = (~feasible).astype(float)
+        if self.penalty == "graded":
+            excess_km = np.nansum(np.clip(-np.nan_to_num(margin, nan=0.0), 0.0, None), axis=1) / 1e3
+            mac_deficit = np.clip(self.mac_threshold - np.nan_to_num(min_mac, nan=0.0), 0.0, None) / 0.02
+            n_sdoff = np.array([sum(bool(p.get("sdoff")) for p in (r.get("results") or [])) for r in results])
+            c = np.where(feasible, 0.0, 1.0 + excess_km * (~env_ok) + mac_deficit + n_sdoff)
+        objective = np.where(np.isfinite(mass), np.nan_to_num(mass) + self.mu * c, 2.0 * self.mu * (1 + c))
         return BatchEvaluation(pop.copy(), objective, mass, feasible, env_ok, margin, alt, vf, wf, sdoff, min_mac,
                                self.machs.copy(), errors)
 
