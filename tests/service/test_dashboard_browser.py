@@ -1,0 +1,107 @@
+"""The dashboard in a real headless Chromium against `romams serve` (uvicorn + embedded child worker, SQLite)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.service.conftest import CI, ROOT, service_env
+
+pytestmark = pytest.mark.browser
+CHROMIUM = "/usr/bin/chromium"
+
+
+def _chromium() -> str:
+    """Path of the system Chromium, installing it with apt-get if absent."""
+    if not Path(CHROMIUM).exists() and shutil.which("apt-get"):
+        subprocess.run(["apt-get", "install", "-y", "chromium"], capture_output=True, timeout=600)
+    if not Path(CHROMIUM).exists():
+        if CI:
+            pytest.fail("Chromium is not installed at /usr/bin/chromium")
+        pytest.skip("Chromium is not installed at /usr/bin/chromium")
+    return CHROMIUM
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture()
+def server(tmp_path):
+    port = _free_port()
+    env = service_env(tmp_path / "data", port=port, heartbeat_s=0.5)
+    log = open(tmp_path / "serve.log", "wb")  # noqa: SIM115
+    cmd = [sys.executable, "-c", "from romams.cli import main; main()", "serve", "--loglevel", "info"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    base = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            if httpx.get(f"{base}/api/v1/health", timeout=2).status_code == 200:
+                break
+        except httpx.HTTPError:
+            pass
+        if proc.poll() is not None or time.monotonic() > deadline:
+            raise AssertionError((tmp_path / "serve.log").read_text()[-3000:])
+        time.sleep(0.3)
+    try:
+        yield base, tmp_path
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=40)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+        log.close()
+
+
+def test_dashboard_shows_a_job_reaching_100_percent(server):
+    from playwright.sync_api import sync_playwright
+
+    base, tmp = server
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=_chromium(), headless=True,
+                                     args=["--headless", "--no-sandbox", "--disable-gpu",
+                                           "--disable-background-networking"])
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 900})
+            errors: list[str] = []
+            page.on("pageerror", lambda exc: errors.append(str(exc)))
+            page.goto(f"{base}/dashboard")
+            assert page.title() == "romams dashboard"
+            wid = httpx.post(f"{base}/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
+            job_id = httpx.post(f"{base}/api/v1/wings/{wid}/basis", json={"samples": 4, "modes": 3}).json()["job_id"]
+            row = f'tr[data-job="{job_id}"]'
+            page.wait_for_selector(row, timeout=15_000)  # the poller shows the new job without a reload
+            seen = set()
+            deadline = time.monotonic() + 240
+            while time.monotonic() < deadline:
+                pct = page.text_content(f"{row} .pct")
+                seen.add(pct)
+                if pct == "100%":
+                    break
+                time.sleep(0.2)
+            assert page.text_content(f"{row} .pct") == "100%", (seen, (tmp / "serve.log").read_text()[-3000:])
+            page.wait_for_function(f"document.querySelector('{row} .st').textContent === 'succeeded'",
+                                   timeout=10_000)
+            width = page.eval_on_selector(f"{row} .fill", "e => e.style.width")
+            assert width == "100%"
+            assert len(seen) >= 2, seen  # it moved while we watched (0% ... 100%)
+            # finished work refreshes the wings section: the new basis and its MAC table appear
+            page.wait_for_selector("section.wing .basis table.mac", timeout=15_000)
+            assert "cropped-delta" in page.text_content("#wings-section")
+            page.screenshot(path=str(tmp / "dashboard.png"), full_page=True)
+            assert not errors, errors
+        finally:
+            browser.close()
