@@ -98,6 +98,12 @@ def install(app: FastAPI) -> None:
         return problem_response(exc.status_code, str(exc.detail), instance=str(request.url.path),
                                 headers=getattr(exc, "headers", None))
 
+    from romams.jobs import BrokerUnavailable
+
+    @app.exception_handler(BrokerUnavailable)
+    async def _broker(request: Request, exc: BrokerUnavailable) -> JSONResponse:
+        return problem_response(503, str(exc), instance=str(request.url.path), headers={"Retry-After": "5"})
+
     @app.exception_handler(Exception)
     async def _unexpected(request: Request, exc: Exception) -> JSONResponse:
         log.exception("unhandled error on %s", request.url.path)

@@ -42,9 +42,18 @@ class JobFailed(Exception):
     """A job failure with a user-facing reason (stored as the job's error text)."""
 
 
-def send(celery: Any, task_name: str, job_id: str) -> None:
-    """Send the message for a committed job row (task id = job id)."""
-    celery.send_task(task_name, args=[job_id], task_id=job_id if task_name in TASK_FOR_KIND.values() else None)
+class BrokerUnavailable(RuntimeError):
+    """The task message could not be sent (the job row was marked failed)."""
+
+
+def send(celery: Any, task_name: str, job_id: str, store: Store | None = None) -> None:
+    """Send the message for a committed job row (task id = job id); if the broker refuses, fail the row."""
+    try:
+        celery.send_task(task_name, args=[job_id], task_id=job_id)
+    except Exception as exc:
+        if store is not None:
+            store.finish_job(job_id, "failed", error=f"could not enqueue the task: {type(exc).__name__}: {exc}")
+        raise BrokerUnavailable(f"broker: could not enqueue the task ({type(exc).__name__}: {exc})") from exc
 
 
 def submit(store: Store, celery: Any, kind: str, params: dict[str, Any], *, wing_id: int | None = None,
@@ -53,7 +62,7 @@ def submit(store: Store, celery: Any, kind: str, params: dict[str, Any], *, wing
     """Create the job row (committed) and then send its task; returns the job id."""
     job_id = store.create_job(kind, params, wing_id=wing_id, key=key, parent_id=parent_id, stage=stage)
     if send_now:
-        send(celery, TASK_FOR_KIND[kind], job_id)
+        send(celery, TASK_FOR_KIND[kind], job_id, store)
     return job_id
 
 

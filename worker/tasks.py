@@ -96,7 +96,7 @@ def basis_job(job_id: str) -> None:
         progress(0.02, f"{len(designs)} samples in {len(children)} chunks of modal analyses")
         for c in children:
             if c["status"] == "queued":
-                send(app, "romams.training.basis_chunk", c["id"])
+                send(app, "romams.training.basis_chunk", c["id"], s)
 
     _run(job_id, body, finish=False)
 

@@ -148,8 +148,12 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
     kids = [svc.store.create_job("flutter-chunk", {"basis_id": bid, "rom_ids": rom_ids, "index": k,
                                                    "designs": vectors[i:i + chunk]}, wing_id=wid, parent_id=parent)
             for k, i in enumerate(range(0, n, chunk))]
-    for k in kids:
-        jobs.send(svc.celery, jobs.TASK_FOR_KIND["flutter-chunk"], k)
+    try:
+        for k in kids:
+            jobs.send(svc.celery, jobs.TASK_FOR_KIND["flutter-chunk"], k, svc.store)
+    except jobs.BrokerUnavailable:
+        svc.store.cancel_job(parent)
+        raise
     if n > svc.settings.batch_sync_max:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{parent}"

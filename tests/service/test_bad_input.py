@@ -188,3 +188,13 @@ def test_openapi_documents_the_contract(client):
               "/api/v1/evaluations/{evaluation_id}/vg", "/api/v1/evaluations/{evaluation_id}/plot.{fmt}"):
         assert p in paths, p
     assert client.get("/api/v1/health").json()["status"] == "ok"
+
+
+def test_unreachable_broker_gives_503_and_a_failed_job(tmp_path):
+    app = create_app(Settings(data_dir=tmp_path, broker_url="redis://127.0.0.1:1/0"), sweeper=False)
+    with TestClient(app) as c:
+        wid = c.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
+        r = c.post(f"/api/v1/wings/{wid}/basis", json={"samples": 4})
+        problem(r, 503, contains="broker")
+        jobs = c.get("/api/v1/jobs").json()
+        assert len(jobs) == 1 and jobs[0]["status"] == "failed" and "could not enqueue" in jobs[0]["error"]
