@@ -258,7 +258,7 @@ def _assign(
 
     Eigenvalue distances are relative to max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a
     finite scale). Returns the new branch state, the smallest assigned MAC, the largest relative jump and
-    the smallest margin of the next-best candidate over twice the assigned cost (< 0: near-tie).
+    the smallest margin of the next-best candidate over 1.5 x the assigned cost (< 0: near-tie).
     """
     k = prev.lam.size
     if math.isfinite(period):
@@ -275,7 +275,7 @@ def _assign(
     idx = np.arange(k)
     chosen = cost[idx, cols]
     new_lam = s[idx, cols] if s.shape[0] == k else lam_c[cols]
-    # near-tie: the runner-up costs less than twice the assigned candidate (+0.002); a smaller step, where
+    # near-tie: the runner-up costs less than 1.5 x the assigned candidate (+0.002); a smaller step, where
     # the true continuation's cost tends to 0, separates them (e.g. an aero pole beside a mode). Only
     # lightly damped oscillatory branches are checked: a heavily damped pair splitting into two real
     # roots is a genuine, harmless tie.
@@ -283,7 +283,7 @@ def _assign(
     gap = np.inf
     if osc.any() and cost.shape[1] > 1:
         cost[idx, cols] = np.inf
-        gap = float(np.min((cost.min(axis=1) - 2.0 * chosen - 0.002)[osc]))
+        gap = float(np.min((cost.min(axis=1) - 1.5 * chosen - 0.002)[osc]))
     return _Branches(new_lam, a_c[:, cols]), float(mac[idx, cols].min()), float(dist[idx, cols].max()), gap
 
 
@@ -335,6 +335,12 @@ def _single_mode_unstable(
     sub = _Model(1, m.na, m.omega[[j]], m.zeta[[j]], m.c_ref, m.dt_star, m.coupling, m.a, m.b[:, [j]],
                  m.c[[j], :], m.d[[j]][:, [j]])
     tr = _Tracker(sub, cond, weight)
+    # fast path: no unstable oscillatory root at all at p_end -> stable (a single-mode hump that returns
+    # to stability before p_end would be missed; such a hump is not flutter-critical at q_f anyway)
+    lam_end, _, _ = tr.eig(np.array([p_end]), vectors=False)
+    lam_end = lam_end[0]
+    if not np.any((lam_end.real > 1e-9 * np.abs(lam_end)) & (np.abs(lam_end.imag) > 0.05 * sub.omega[0])):
+        return False
     grid = np.linspace(p_start, p_end, n + 1)[1:]
     lam, xs, per = tr.eig(grid)
     state = _initial_branches(sub.omega, sub.zeta)
