@@ -1,0 +1,49 @@
+"""Sampling of the UQ example (examples/uq_flutter.py): clipped normal scatter about a nominal design."""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+from live_service import ROOT
+
+spec = importlib.util.spec_from_file_location("uq_flutter", ROOT / "examples/uq_flutter.py")
+uq = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(uq)
+
+LOWER = np.array([0.15, 0.15, 0.60, 0.0, 0.5, 0.5, 0.5])
+UPPER = np.array([0.70, 0.70, 0.85, 0.105, 2.0, 2.0, 1.0])
+
+
+def test_scatter_has_the_requested_std_inside_the_bounds() -> None:
+    nominal = np.array([0.4, 0.4, 0.7, 0.05, 1.0, 1.0, 0.75])  # far from the bounds for 2 % scatter
+    x, sigma = uq.scatter_samples(nominal, np.full(7, 0.02), LOWER, UPPER, 20_000, seed=1)
+    assert x.shape == (20_000, 7)
+    assert sigma == pytest.approx(0.02 * nominal, rel=1e-12)
+    # sample mean within 4 standard errors, sample std within 3 % (n = 20 000: se of std ~ 0.5 %)
+    assert np.all(np.abs(x.mean(axis=0) - nominal) < 4 * sigma / np.sqrt(len(x)))
+    assert x.std(axis=0, ddof=1) == pytest.approx(sigma, rel=0.03)
+
+
+def test_scatter_is_clipped_and_zero_nominal_uses_the_range() -> None:
+    nominal = np.array([0.15, 0.70, 0.85, 0.0, 2.0, 0.5, 1.0])  # every variable at a bound
+    x, sigma = uq.scatter_samples(nominal, np.full(7, 0.05), LOWER, UPPER, 4000, seed=2)
+    assert np.all(x >= LOWER) and np.all(x <= UPPER)
+    assert sigma[3] == pytest.approx(0.05 * 0.105, rel=1e-12)  # nominal 0 kg: 5 % of the 0..0.105 kg range
+    # half of each clipped normal sits on its bound
+    at_bound = np.mean(np.isclose(x, nominal), axis=0)
+    assert at_bound == pytest.approx(np.full(7, 0.5), abs=0.04)
+
+
+def test_bad_input_names_the_field() -> None:
+    with pytest.raises(ValueError, match="rel_std"):
+        uq.scatter_samples(np.full(7, 0.6), np.full(7, -0.1), LOWER, UPPER, 10, 0)
+    with pytest.raises(ValueError, match="design"):
+        uq.scatter_samples(np.full(7, 5.0), np.full(7, 0.1), LOWER, UPPER, 10, 0)
+    names = [f"x{i}" for i in range(1, 8)]
+    assert uq.parse_pairs("x1=0.2, x4=0.01", names, "--design") == {"x1": 0.2, "x4": 0.01}
+    with pytest.raises(ValueError, match="--design"):
+        uq.parse_pairs("x9=1", names, "--design")
+    with pytest.raises(ValueError, match="x2: not a number"):
+        uq.parse_pairs("x2=abc", names, "--design")
