@@ -53,12 +53,20 @@ def regressors(u: np.ndarray, f: np.ndarray, na: int, nb: int) -> np.ndarray:
 
 
 def fit_arx(
-    u: np.ndarray, f: np.ndarray, na: int = 8, nb: int = 8, ridge: float = 0.0, dt_star: float = float("nan")
+    u: np.ndarray,
+    f: np.ndarray,
+    na: int = 8,
+    nb: int = 8,
+    ridge: float = 0.0,
+    dt_star: float = float("nan"),
+    ar_ridge: float = 0.0,
 ) -> ArxModel:
     """Least-squares ARX fit of outputs f [T, m_out] to inputs u [T, m_in]; all outputs in ONE solve.
 
     Columns of the regression matrix are scaled to unit RMS before solving; ``ridge`` (>= 0, dimensionless)
-    adds ridge * T * I to the normal equations of the scaled problem (Tikhonov regularization).
+    adds ridge * T * I to the normal equations of the scaled problem (Tikhonov regularization), and
+    ``ar_ridge`` adds ar_ridge * T on the autoregressive (A_i) coefficients only: a tiny value (1e-10) removes
+    the spurious, nearly unstable poles that oversampled band-limited data leave in an unconstrained fit.
     """
     _check_orders(na, nb)
     u = np.asarray(u, dtype=float)
@@ -69,6 +77,8 @@ def fit_arx(
         raise ValueError("u, f: must be finite")
     if not (math.isfinite(ridge) and ridge >= 0):
         raise ValueError(f"ridge: must be a finite number >= 0, got {ridge!r}")
+    if not (math.isfinite(ar_ridge) and ar_ridge >= 0):
+        raise ValueError(f"ar_ridge: must be a finite number >= 0, got {ar_ridge!r}")
     m_out, m_in = f.shape[1], u.shape[1]
     n_par = na * m_out + nb * m_in
     if u.shape[0] < 2 * n_par:
@@ -77,8 +87,10 @@ def fit_arx(
     scale = np.sqrt(np.mean(phi**2, axis=0))
     scale[scale == 0] = 1.0
     phi_s = phi / scale
-    if ridge > 0:
-        phi_s = np.vstack([phi_s, math.sqrt(ridge * phi.shape[0]) * np.eye(n_par)])
+    if ridge > 0 or ar_ridge > 0:
+        weight = np.full(n_par, ridge)
+        weight[: na * m_out] += ar_ridge
+        phi_s = np.vstack([phi_s, np.diag(np.sqrt(weight * phi.shape[0]))])
         rhs = np.vstack([f, np.zeros((n_par, m_out))])
     else:
         rhs = f

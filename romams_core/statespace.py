@@ -25,6 +25,7 @@ __all__ = [
     "d2c_tustin",
     "spectral_radius",
     "reflect_unstable_poles",
+    "refit_output_map",
 ]
 
 
@@ -250,6 +251,29 @@ def reflect_unstable_poles(ss: DiscreteSS) -> tuple[DiscreteSS, int]:
     if count == 0:
         return ss, 0
     return DiscreteSS(A=q @ t @ q.T, B=ss.B.copy(), C=ss.C.copy(), D=ss.D.copy(), dt_star=ss.dt_star), count
+
+
+def refit_output_map(ss: DiscreteSS, u: np.ndarray, y: np.ndarray) -> DiscreteSS:
+    """Keep A, B; refit C, D by least squares so that the free-run output matches y [T, p] for inputs u [T, m].
+
+    With A and B fixed the states are known, so the output map is linear: one least-squares solve with all
+    outputs as right-hand sides (columns scaled to unit RMS). Used after pole reflection to move the zeros
+    back into agreement with the moved poles.
+    """
+    u = np.asarray(u, dtype=float)
+    y = np.asarray(y, dtype=float)
+    x = np.zeros(ss.n_states)
+    bu = u @ ss.B.T
+    xs = np.empty((u.shape[0], ss.n_states))
+    for t in range(u.shape[0]):  # sequential state recursion
+        xs[t] = x
+        x = ss.A @ x + bu[t]
+    reg = np.hstack([xs, u])
+    scale = np.sqrt(np.mean(reg**2, axis=0))
+    scale[scale == 0] = 1.0
+    theta = np.linalg.lstsq(reg / scale, y, rcond=None)[0] / scale[:, None]  # [n + m, p]
+    return DiscreteSS(A=ss.A.copy(), B=ss.B.copy(), C=theta[: ss.n_states].T.copy(), D=theta[ss.n_states :].T.copy(),
+                      dt_star=ss.dt_star)
 
 
 def to_modal(ss: DiscreteSS, gamma: np.ndarray) -> DiscreteSS:

@@ -23,10 +23,14 @@ from romams_core.statespace import (
     arx_to_ss,
     balanced_models,
     balanced_truncation,
+    refit_output_map,
     reflect_unstable_poles,
 )
 
 __all__ = ["TrainedRom", "TrainingError", "train_rom", "default_n_steps"]
+
+#: AR-only Tikhonov levels tried, in order, when the plain least-squares ARX fit is unstable.
+_AR_RIDGES = (1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6)
 
 
 class TrainingError(RuntimeError):
@@ -68,6 +72,7 @@ class TrainedRom:
     warnings: list[str] = field(default_factory=list)
     train_seconds: float = 0.0
     solver_seconds: float = 0.0
+    ar_ridge: float = 0.0  # AR-only regularization used (0 unless the plain fit was unstable)
 
     def summary(self) -> dict[str, object]:
         """Small JSON-able summary (floats and lists)."""
@@ -157,19 +162,21 @@ def train_rom(
     full = arx_to_ss(arx, dt_star)
     notes: list[str] = []
     rho = full.spectral_radius()
-    pred_arx = arx_simulate(arx, both)
-    if not rho < 1.0:
-        full, n_ref = reflect_unstable_poles(full)
+    ar_ridge = 0.0
+    for lam in _AR_RIDGES if not rho < 1.0 else ():  # a few regularization levels
+        trial = fit_arx(exc.train, gac[:n], na=na, nb=nb, ridge=ridge, dt_star=dt_star, ar_ridge=lam)
+        trial_ss = arx_to_ss(trial, dt_star)
+        if trial_ss.spectral_radius() < 1.0:
+            notes.append(f"plain ARX fit was unstable (spectral radius {rho:.4f}); refitted with ar_ridge = {lam:g}")
+            arx, full, ar_ridge = trial, trial_ss, lam
+            break
+    pred_arx = arx_simulate(arx, both) if full.spectral_radius() < 1.0 else np.zeros_like(gac)
+    if not full.spectral_radius() < 1.0:
+        full, pred_arx, n_ref = _stabilize(full, exc.train, gac, both, n)
         notes.append(
-            f"ARX fit had {n_ref} unstable pole(s) (spectral radius {rho:.4f}, unexcited by the band-limited "
-            "signals); reflected to 1/conj(z) and re-validated"
+            f"ARX fit had {n_ref} unstable pole(s) (spectral radius {rho:.4f}) even with ar_ridge; reflected to "
+            "1/conj(z) (output map refitted when that validated better), then validated"
         )
-        if not full.spectral_radius() < 1.0:
-            raise TrainingError(
-                f"identified ARX model is unstable (spectral radius {rho:.6f} >= 1) and could not be stabilized; "
-                "try other na/nb or a longer signal"
-            )
-        pred_arx = full.simulate(both)
     training_nrmse = nrmse(gac[:n], pred_arx[:n])
     arx_val = nrmse(gac[n:], pred_arx[n:])
     ss, hsv = full, np.zeros(0)
@@ -221,7 +228,28 @@ def train_rom(
         warnings=(list(info.warnings) if info is not None else []) + notes,
         train_seconds=time.perf_counter() - t_start,
         solver_seconds=solver_seconds,
+        ar_ridge=float(ar_ridge),
     )
+
+
+def _stabilize(
+    full: DiscreteSS, u_train: np.ndarray, gac: np.ndarray, both: np.ndarray, n_train: int
+) -> tuple[DiscreteSS, np.ndarray, int]:
+    """Reflect unstable poles; keep the better (validation NRMSE) of plain reflection and reflection + C, D refit."""
+    refl, n_ref = reflect_unstable_poles(full)
+    if not refl.spectral_radius() < 1.0:
+        raise TrainingError(
+            f"identified ARX model is unstable (spectral radius {full.spectral_radius():.6f} >= 1) and could not be "
+            "stabilized; try other na/nb or another signal length"
+        )
+    best: tuple[float, DiscreteSS, np.ndarray] | None = None
+    for cand in (refl, refit_output_map(refl, u_train, gac[:n_train])):  # two candidates
+        pred = cand.simulate(both)
+        err = float(np.max(nrmse(gac[n_train:], pred[n_train:])))
+        if best is None or err < best[0]:
+            best = (err, cand, pred)
+    assert best is not None
+    return best[1], best[2], n_ref
 
 
 def _auto_reduce(

@@ -55,3 +55,16 @@ def test_bad_input_names_the_field(kwargs, field):
         fit_arx(u, u, **kwargs)
     with pytest.raises(ValueError, match="u"):
         fit_arx(np.zeros((10, 2)), np.zeros((10, 2)), 4, 4)
+
+
+def test_ar_ridge_shrinks_only_the_autoregressive_part():
+    rng = np.random.default_rng(6)
+    true = _random_arx(rng, na=3, nb=3, p=2, m=2)
+    u = rng.standard_normal((800, 2))
+    f = arx_simulate(true, u)
+    exact = fit_arx(u, f, 3, 3, ar_ridge=1e-12)
+    np.testing.assert_allclose(exact.a, true.a, atol=1e-6)  # a tiny value leaves a consistent fit unchanged
+    fir = fit_arx(u, f, 3, 3, ar_ridge=1e8)
+    assert np.abs(fir.a).max() < 1e-4  # a huge value forces an FIR model ...
+    plain_fir = fit_arx(u, f, 0, 3)
+    np.testing.assert_allclose(fir.b, plain_fir.b, rtol=1e-3, atol=1e-3 * np.abs(plain_fir.b).max())  # ... the FIR fit

@@ -4,7 +4,15 @@ import numpy as np
 import pytest
 
 from romams_core.arx import ArxModel
-from romams_core.statespace import DiscreteSS, arx_to_ss, balanced_truncation, d2c_tustin, to_modal
+from romams_core.statespace import (
+    DiscreteSS,
+    arx_to_ss,
+    balanced_truncation,
+    d2c_tustin,
+    refit_output_map,
+    reflect_unstable_poles,
+    to_modal,
+)
 
 
 def _system(seed: int = 0, n: int = 12, m: int = 3) -> DiscreteSS:
@@ -67,3 +75,28 @@ def test_tustin_maps_frequency_response_with_warping():
         np.testing.assert_allclose(ct.freqresp([k_warp])[0], ss.freqresp([k])[0], rtol=1e-9, atol=1e-9)
     # stable discrete poles map to the open left half plane
     assert np.all(np.linalg.eigvals(ct.A).real < 0)
+
+
+def test_reflect_unstable_poles_and_refit_output_map():
+    ss = _system(4, n=8, m=2)
+    a = ss.A.copy()
+    a[:2, :2] = [[1.05, -0.3], [0.3, 1.05]]  # unstable pair |z| = 1.092 on top of a stable block structure
+    a[:2, 2:] = 0.0
+    a[2:, :2] = 0.0
+    a[4, 4] = -1.2 if abs(a[4, 4]) < 1.2 else a[4, 4]
+    uns = DiscreteSS(A=a, B=ss.B, C=ss.C, D=ss.D, dt_star=0.1)
+    before = np.linalg.eigvals(a)
+    fixed, count = reflect_unstable_poles(uns)
+    after = np.linalg.eigvals(fixed.A)
+    expect = np.where(np.abs(before) >= 1, 1 / np.conj(before), before)
+    assert count == int(np.sum(np.abs(before) >= 1)) >= 3
+    np.testing.assert_allclose(np.sort_complex(after), np.sort_complex(expect), atol=1e-9)
+    assert fixed.is_stable()
+    # with A, B fixed the output map is linear: a refit on noise-free data recovers C and D
+    rng = np.random.default_rng(8)
+    u = rng.standard_normal((300, 2))
+    y = fixed.simulate(u)
+    scrambled = DiscreteSS(A=fixed.A, B=fixed.B, C=np.zeros_like(fixed.C), D=np.zeros_like(fixed.D), dt_star=0.1)
+    refit = refit_output_map(scrambled, u, y)
+    np.testing.assert_allclose(refit.C, fixed.C, atol=1e-8)
+    np.testing.assert_allclose(refit.D, fixed.D, atol=1e-8)

@@ -14,6 +14,8 @@ from romams_core.aero.uvlm import (
     frequency_response,
     march,
     panel_forces_frequency,
+    refine_mesh,
+    substep_signals,
     uvlm_state_space,
 )
 from romams_core.mesh import Planform, standard_mesh
@@ -117,7 +119,7 @@ def _wing(nc: int = 6, ns: int = 8):
 def test_time_march_matches_frequency_response_and_state_space():
     mesh, shapes = _wing()
     dt = 1.0 / mesh.n_chord
-    solver = UvlmSolver(wake_chords=8.0)
+    solver = UvlmSolver(wake_chords=8.0, refine=1)
     assert isinstance(solver, UnsteadySolver)
     k = 0.4
     n_t = 1200
@@ -139,6 +141,36 @@ def test_time_march_matches_frequency_response_and_state_space():
     assert ss.is_stable()
     # and its frequency response is the z-domain one (BDF2 input derivative)
     np.testing.assert_allclose(ss.freqresp([k])[0], h, rtol=1e-8, atol=1e-10 * np.abs(h).max())
+    # refined lattice + sub-steps: the march equals the z-domain response of the refined system at dt / 2
+    gac2 = UvlmSolver(wake_chords=8.0, refine=2).simulate(mesh, shapes, sig, 0.5, dt)
+    h2 = frequency_response(mesh, shapes, 0.5, [k], dt_star=dt / 2, wake_chords=8.0, derivative="bdf2", refine=2)[0]
+    pred2 = np.real(np.outer(np.exp(1j * 2 * k * t), h2 @ u_hat))
+    scale2 = np.abs(pred2[tail]).max()
+    assert np.abs(gac2[tail] - pred2[tail]).max() < 3e-3 * scale2  # sub-step interpolation error (k dt)^4 scale
+    assert np.abs(pred2[tail] - pred[tail]).max() > 1e-2 * scale2  # while the refinement changes the loads ~3 %
+
+
+def test_substep_interpolation_is_causal_and_fourth_order():
+    t = np.arange(40) * 0.2
+    u = np.sin(0.7 * t)[:, None]
+    fine = substep_signals(u, 4)
+    tf = np.arange(fine.shape[0]) * 0.05
+    np.testing.assert_allclose(fine[::4], u, atol=1e-15)  # passes through the samples
+    assert np.abs(fine[12:, 0] - np.sin(0.7 * tf[12:])).max() < 2e-5  # (0.14)^4 / 24 scale, past the start
+    # changing sample n + 2 leaves every value up to t_(n+1) unchanged (causal: outputs at t_(n+1) unaffected)
+    v = u.copy()
+    v[20] += 1.0
+    np.testing.assert_array_equal(substep_signals(v, 4)[: 18 * 4 + 1], fine[: 18 * 4 + 1])
+
+
+def test_refined_mesh_interpolates_the_same_shapes():
+    mesh, shapes = _wing(4, 5)
+    fine, interp = refine_mesh(mesh, 3)
+    assert (fine.n_chord, fine.n_span) == (12, 15)
+    np.testing.assert_allclose((interp @ shapes)[:: 1][fine.grid(np.arange(fine.n_nodes))[::3, ::3].ravel()],
+                               shapes, atol=1e-14)  # coarse nodes are reproduced
+    xi, eta = fine.planform.to_xi_eta(fine.x, fine.y)
+    np.testing.assert_allclose(interp @ (mesh.x * 2.0 + mesh.y), fine.x * 2.0 + fine.y, atol=1e-12)  # bilinear exact
 
 
 def test_batched_columns_equal_separate_runs_and_progress_cancels():
