@@ -1,7 +1,7 @@
 """A live embedded ``romams serve`` subprocess (API + child Celery worker, SQLite, server-less broker).
 
-Used by the client and optimization tests and by benchmarks: a free port, a private data dir, settings
-passed as ROMAMS_* variables, nothing inherited from the caller's ROMAMS_* environment.
+Used by benchmarks.run and by the client and optimization tests: a free port, a private data dir,
+settings passed as ROMAMS_* variables, nothing inherited from the caller's ROMAMS_* environment.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ class LiveService:
         self.stop()
         raise RuntimeError(f"romams serve did not come up on {self.url}:\n{tail}")
 
-    def worker_pids(self) -> list[int]:
+    def session_pids(self) -> list[int]:
         """Pids of every process of this service's session (API, worker and its pool)."""
         out = []
         for p in Path("/proc").iterdir():
@@ -74,6 +74,18 @@ class LiveService:
                         out.append(int(p.name))
                 except OSError:
                     continue
+        return out
+
+    def worker_pids(self) -> list[int]:
+        """Pids of the Celery worker processes (main process and pool children) of this service."""
+        out = []
+        for pid in self.session_pids():
+            try:
+                cmd = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")
+            except OSError:
+                continue
+            if b"celery" in cmd:
+                out.append(pid)
         return out
 
     def log_tail(self, n: int = 4000) -> str:

@@ -1,0 +1,310 @@
+"""The project's speed benchmarks in one run, printed as ONE JSON object.
+
+    python -m benchmarks.run [--quick] [--json] [--all]
+
+- structure_eval_ms: one structure = modal analysis + flutter at 5 Mach numbers (projection on the
+  basis, ROM to modal coordinates, flutter search, envelope), in process, one core, median over
+  random designs; the basis and UVLM ROMs are built in process first (their timings are reported).
+- rom_pms_over_rom_ams: cost of one structure by ROM-PMS (ARX models identified on the structure's
+  own modes at the 5 Machs, then the same flutter analysis) over its ROM-AMS cost, same run; with the
+  flutter-speed differences between the two.
+- batch_throughput_per_s: designs per second through POST /flutter/batch of a live embedded service
+  (``romams serve``, SQLite, child worker) that this benchmark starts, with 1 and 2 worker processes;
+  worker_peak_rss_mb: peak resident memory (VmHWM) of the worker processes over a 1 000-design batch.
+- optimization_wall_s (not with --quick): a fresh service, basis (25 samples) + training at 5 Machs +
+  the paper's DE (Np = 30, 150 generations = 4 530 structures) over HTTP, end to end.
+``--all`` adds the other benchmark scripts' JSON (bench_modal, bench_projection, bench_training,
+bench_flutter). Progress goes to stderr. Timings depend on the machine's load: it is reported.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # one core, before numpy loads its BLAS
+
+import argparse  # noqa: E402
+import importlib.util  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+import platform  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+MACHS = (0.79, 0.83, 0.87, 0.91, 0.95)
+TRAIN_OPTIONS = {"reduce_order": "auto"}  # the service ROMs of the examples: balanced truncation at training
+TARGETS = {"structure_eval_ms": 50.0, "optimization_wall_s": 600.0, "training_s_per_mach": 60.0}
+
+
+def log(msg: str) -> None:
+    """Progress on stderr."""
+    print(f"[bench] {msg}", file=sys.stderr, flush=True)
+
+
+def _load_example(name: str) -> Any:
+    """A script of examples/ as a module."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "examples" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)  # type: ignore[union-attr]
+    return mod
+
+
+# ---- in process ---------------------------------------------------------------------------------------
+def build_models(samples: int = 25, machs: tuple[float, ...] = MACHS) -> dict[str, Any]:
+    """Cropped-delta basis and UVLM ROMs at ``machs``, in process, with their timings."""
+    from romams_core.aero.uvlm import UvlmSolver
+    from romams_core.basis import build_basis_for_wing
+    from romams_core.mesh import standard_mesh
+    from romams_core.training import train_rom
+    from romams_core.wing import template
+
+    wing = template("cropped-delta")
+    mesh = standard_mesh(wing.planform)
+    t0 = time.perf_counter()
+    basis = build_basis_for_wing(wing, samples=samples, modes=4, mac_threshold=0.98, max_basis=12, seed=0)
+    t_basis = time.perf_counter() - t0
+    roms, t_train = {}, []
+    for m in machs:
+        t0 = time.perf_counter()
+        roms[float(m)] = train_rom(mesh, basis.shapes, float(m), UvlmSolver(), **TRAIN_OPTIONS)
+        t_train.append(time.perf_counter() - t0)
+    return {"wing": wing, "mesh": mesh, "basis": basis, "roms": roms, "basis_s": t_basis, "train_s": t_train}
+
+
+def structure_eval(models: dict[str, Any], n_designs: int, seed: int = 1) -> dict[str, Any]:
+    """Median time of modal analysis + ROM-AMS flutter evaluation at every Mach of one structure (ms)."""
+    from romams_core.basis import random_designs
+    from romams_core.evaluate import evaluate_structure
+    from romams_core.structure.modal import modal_analysis
+
+    wing, mesh, basis, roms = models["wing"], models["mesh"], models["basis"], models["roms"]
+    designs = random_designs(wing, n_designs + 1, seed=seed)
+    zeta = wing.modal_damping or None
+    evaluate_structure(modal_analysis(wing, designs[0], 4, mesh), basis.shapes, roms, zeta=zeta)  # warm-up
+    modal_ms, flutter_ms, total_ms, wall_ms = [], [], [], []
+    for x in designs[1:]:
+        w0, t0 = time.perf_counter(), time.process_time()
+        modal = modal_analysis(wing, x, 4, mesh)
+        t1 = time.process_time()
+        evaluate_structure(modal, basis.shapes, roms, mac_threshold=basis.mac_threshold, zeta=zeta)
+        t2, w2 = time.process_time(), time.perf_counter()
+        modal_ms.append(1e3 * (t1 - t0))
+        flutter_ms.append(1e3 * (t2 - t1))
+        total_ms.append(1e3 * (t2 - t0))
+        wall_ms.append(1e3 * (w2 - w0))
+    return {"structure_eval_ms": float(np.median(total_ms)), "p90_ms": float(np.percentile(total_ms, 90)),
+            "clock": "CPU time of this single-threaded process (the machine is shared; wall below)",
+            "wall_ms_median": float(np.median(wall_ms)),
+            "modal_ms": float(np.median(modal_ms)), "flutter_all_machs_ms": float(np.median(flutter_ms)),
+            "n_designs": n_designs, "machs": sorted(roms), "n_basis": int(basis.n_basis),
+            "rom_states": [int(r.ss.n_states) for _, r in sorted(roms.items())],
+            "basis_s": models["basis_s"], "training_s_per_mach": models["train_s"]}
+
+
+def rom_pms_cost(models: dict[str, Any], n_designs: int, ams_ms: float, seed: int = 2) -> dict[str, Any]:
+    """ROM-PMS per structure (own-mode training at every Mach + flutter) vs ROM-AMS, and their flutter speeds."""
+    from romams_core.aero.uvlm import UvlmSolver
+    from romams_core.basis import random_designs
+    from romams_core.evaluate import evaluate_structure
+    from romams_core.structure.modal import modal_analysis
+    from romams_core.training import train_rom
+
+    wing, mesh, basis, roms = models["wing"], models["mesh"], models["basis"], models["roms"]
+    zeta = wing.modal_damping or None
+    times, errors, rows = [], [], []
+    for x in random_designs(wing, n_designs, seed=seed):
+        t0 = time.process_time()
+        modal = modal_analysis(wing, x, 4, mesh)
+        own = {m: train_rom(mesh, modal.shapes, m, UvlmSolver(), **TRAIN_OPTIONS) for m in roms}
+        pms = evaluate_structure(modal, modal.shapes, own, zeta=zeta)
+        times.append(time.process_time() - t0)
+        ams = evaluate_structure(modal, basis.shapes, roms, zeta=zeta)
+        for a, p in zip(ams.flutter, pms.flutter, strict=True):
+            if a.flutter_found and p.flutter_found:
+                errors.append(100.0 * (a.v_flutter_m_s - p.v_flutter_m_s) / p.v_flutter_m_s)
+            rows.append({"mach": float(a.mach), "v_ams": a.v_flutter_m_s if a.flutter_found else None,
+                         "v_pms": p.v_flutter_m_s if p.flutter_found else None})
+    pms_ms = 1e3 * float(np.median(times))
+    err = np.abs(np.array(errors)) if errors else np.array([math.nan])
+    return {"rom_pms_over_rom_ams": pms_ms / ams_ms, "rom_pms_ms": pms_ms, "rom_ams_ms": ams_ms,
+            "n_designs": n_designs, "v_error_pct_median": float(np.median(err)), "v_error_pct_max": float(np.max(err)),
+            "rows": rows}
+
+
+# ---- over HTTP ------------------------------------------------------------------------------------------
+def _vm_hwm_mb(pids: list[int]) -> list[float]:
+    """Peak resident set size (VmHWM, MB) of each process."""
+    out = []
+    for pid in pids:
+        try:
+            for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+                if line.startswith("VmHWM:"):
+                    out.append(int(line.split()[1]) / 1024.0)
+        except OSError:
+            continue
+    return out
+
+
+def _cpu_s(pids: list[int]) -> float:
+    """User + system CPU seconds used so far by the processes ``pids``."""
+    tick = os.sysconf("SC_CLK_TCK")
+    total = 0.0
+    for pid in pids:
+        try:
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            total += (int(fields[11]) + int(fields[12])) / tick
+        except (OSError, IndexError, ValueError):
+            continue
+    return total
+
+
+def _prepare(client: Any, samples: int, machs: tuple[float, ...]) -> tuple[int, dict[str, float]]:
+    """Wing, basis and ROMs on the service (reused when present); setup timings."""
+    ex = _load_example("optimize_cropped_delta")
+    t0 = time.perf_counter()
+    wid = ex.prepare_service(client, "cropped-delta", machs, samples, 0, TRAIN_OPTIONS, log=log, progress=False)
+    return wid, {"setup_s": time.perf_counter() - t0}
+
+
+def service_throughput(data_dir: Path, workers: int, n_batch: int, samples: int, seed: int) -> dict[str, Any]:
+    """Designs/s of one batch request of ``n_batch`` random designs on a live service with ``workers`` processes."""
+    from benchmarks.live_service import LiveService
+    from client import RomamsClient
+
+    with LiveService(data_dir, concurrency=workers) as svc, RomamsClient(svc.url, timeout=600) as client:
+        wid, setup = _prepare(client, samples, MACHS)
+        info = client.get_wing(wid)
+        lo = np.array([v["lower"] for v in info["design_variables"]])
+        hi = np.array([v["upper"] for v in info["design_variables"]])
+        rng = np.random.default_rng(seed)
+        client.evaluate_batch(wid, lo + rng.random((4 * workers, lo.size)) * (hi - lo))  # load the models
+        x = lo + rng.random((n_batch, lo.size)) * (hi - lo)
+        load0 = os.getloadavg()[0]
+        pids = svc.session_pids()
+        cpu0 = _cpu_s(pids)
+        t0 = time.perf_counter()
+        res = client.evaluate_batch(wid, x, timeout_s=3600)
+        dt = time.perf_counter() - t0
+        cpu = _cpu_s(pids) - cpu0
+        rss = _vm_hwm_mb(svc.worker_pids())
+        api_rss = _vm_hwm_mb([svc.proc.pid])
+    failed = sum("error" in r for r in res)
+    return {"workers": workers, "n_designs": n_batch, "seconds": dt, "designs_per_s": n_batch / dt,
+            "ms_per_design": 1e3 * dt / n_batch, "service_cpu_ms_per_design": 1e3 * cpu / n_batch,
+            "errors": failed, "worker_peak_rss_mb": max(rss) if rss else None,
+            "worker_processes_rss_mb": rss, "api_peak_rss_mb": api_rss[0] if api_rss else None,
+            "load_avg_1min_before": load0, **setup}
+
+
+def optimization(data_dir: Path, generations: int, popsize: int, workers: int = 2) -> dict[str, Any]:
+    """End to end: fresh service, basis + training at 5 Machs, then the paper's DE over HTTP."""
+    from benchmarks.live_service import LiveService
+    from client import FlutterProblem, RomamsClient
+
+    ex = _load_example("optimize_cropped_delta")
+    with LiveService(data_dir, concurrency=workers) as svc, RomamsClient(svc.url, timeout=600) as client:
+        t0 = time.perf_counter()
+        wid, setup = _prepare(client, 25, MACHS)
+        problem = FlutterProblem(client, wid, machs=MACHS, mu=10.0, keep_history=False)
+        baseline = problem.baseline()
+        last = [0.0]
+
+        def progress(msg: str) -> None:
+            if time.perf_counter() - last[0] > 30:
+                last[0] = time.perf_counter()
+                log(msg)
+
+        pids = svc.session_pids()
+        cpu0 = _cpu_s(pids)
+        run = ex.run_de(problem, generations, popsize, seed=0, log=progress)
+        total = time.perf_counter() - t0
+        cpu = _cpu_s(pids) - cpu0
+    gen_s = np.diff([h["wall_s"] for h in run["history"]])
+    return {"optimization_wall_s": total, "setup_s": setup["setup_s"], "de_s": run["wall_s"],
+            "evaluations": run["nfev"], "batch_requests": run["batch_requests"], "generations": generations,
+            "popsize": popsize, "workers": workers,
+            "generation_s_median": float(np.median(gen_s)) if gen_s.size else None,
+            "best_mass_kg": run["best"]["mass_kg"], "best_feasible": run["best"]["feasible"],
+            "baseline_mass_kg": baseline["mass_kg"], "designs_per_s": run["nfev"] / run["wall_s"],
+            "service_cpu_s_during_de": cpu, "load_avg_end": list(os.getloadavg())}
+
+
+def sub_benchmarks() -> dict[str, Any]:
+    """JSON of the other benchmark scripts (each run as its own process)."""
+    out: dict[str, Any] = {}
+    for name, args in (("bench_modal", []), ("bench_projection", []), ("bench_training", []),
+                       ("bench_flutter", [])):
+        if not (ROOT / "benchmarks" / f"{name}.py").exists():
+            continue
+        log(f"running benchmarks.{name}")
+        p = subprocess.run([sys.executable, "-m", f"benchmarks.{name}", *args], cwd=ROOT, capture_output=True,
+                           text=True, timeout=1800)
+        try:
+            out[name] = json.loads(p.stdout)
+        except json.JSONDecodeError:
+            out[name] = {"error": (p.stderr or p.stdout)[-500:], "returncode": p.returncode}
+    return out
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    """Run the benchmarks and print one JSON object."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="smaller samples, no full optimization")
+    ap.add_argument("--json", action="store_true", help="compact JSON (default: indented)")
+    ap.add_argument("--all", action="store_true", help="also run and include the other benchmark scripts")
+    ap.add_argument("--generations", type=int, default=150, help="DE generations of the optimization benchmark")
+    ap.add_argument("--popsize", type=int, default=30)
+    ap.add_argument("--skip-service", action="store_true", help="in-process numbers only")
+    args = ap.parse_args(argv)
+    quick = args.quick
+    t_start = time.perf_counter()
+    out: dict[str, Any] = {"benchmark": "romams", "quick": quick, "targets": TARGETS,
+                           "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
+                                       "numpy": np.__version__, "load_avg_start": list(os.getloadavg())}}
+    log("in process: basis + UVLM ROMs at 5 Machs")
+    models = build_models(samples=25)
+    se = structure_eval(models, n_designs=10 if quick else 40)
+    out["structure_eval_ms"] = se["structure_eval_ms"]
+    out["structure_eval"] = se
+    log(f"structure_eval_ms = {se['structure_eval_ms']:.1f}")
+    pms = rom_pms_cost(models, n_designs=1 if quick else 3, ams_ms=se["structure_eval_ms"])
+    out["rom_pms_over_rom_ams"] = pms["rom_pms_over_rom_ams"]
+    out["rom_pms"] = pms
+    log(f"rom_pms_over_rom_ams = {pms['rom_pms_over_rom_ams']:.1f}")
+    if not args.skip_service:
+        with tempfile.TemporaryDirectory(prefix="romams-bench-") as tmp:
+            data = Path(tmp) / "svc"
+            runs = []
+            for workers, n in ((1, 100 if quick else 300), (2, 200 if quick else 1000)):
+                log(f"service with {workers} worker(s): batch of {n} designs")
+                runs.append(service_throughput(data, workers, n, samples=25, seed=10 + workers))
+                log(f"  {runs[-1]['designs_per_s']:.1f} designs/s, worker peak RSS {runs[-1]['worker_peak_rss_mb']} MB")
+            out["batch_throughput_per_s"] = {str(r["workers"]): r["designs_per_s"] for r in runs}
+            out["worker_peak_rss_mb"] = runs[-1]["worker_peak_rss_mb"]
+            out["worker_peak_rss_batch"] = runs[-1]["n_designs"]
+            out["service"] = runs
+            if not quick:
+                log(f"optimization: fresh service, DE {args.popsize} x {args.generations} generations")
+                opt = optimization(Path(tmp) / "opt", args.generations, args.popsize)
+                out["optimization_wall_s"] = opt["optimization_wall_s"]
+                out["optimization"] = opt
+                log(f"optimization_wall_s = {opt['optimization_wall_s']:.1f}")
+    if args.all:
+        out["sub_benchmarks"] = sub_benchmarks()
+    out["machine"]["load_avg_end"] = list(os.getloadavg())
+    out["wall_s"] = time.perf_counter() - t_start
+    print(json.dumps(out, separators=(",", ":") if args.json else None, indent=None if args.json else 1,
+                     default=float))
+    return out
+
+
+if __name__ == "__main__":
+    main()
