@@ -276,35 +276,51 @@ def _window_product(mat: np.ndarray, hist: np.ndarray, nw: int, n_t: int) -> np.
 
 def march(
     system: UvlmSystem,
-    wash: np.ndarray,
+    wash: np.ndarray | tuple[np.ndarray, np.ndarray],
     progress: ProgressFn | None = None,
     outputs: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Time-march ring strengths G [T, K, B] (nondimensional) for normal-wash histories wash [T, K, B].
 
     Step n: wake row 0 holds G_TE(n-1), row r holds G_TE(n-1-r); A0 G(n) = w(n) - AW Gw(n). The only
-    sequential part is the recursion on the trailing-edge strengths; all the rest is batched GEMMs. With
-    ``outputs`` = (C_g [m, K], C_d [m, K]) return y = C_g G + C_d BDF2(G) [T, m, B] instead of G.
+    sequential part is the recursion on the trailing-edge strengths; all the rest is batched GEMMs. ``wash``
+    may be given factored as (W [K, q], inputs [T, q, B]) meaning w = W @ inputs, which is far cheaper.
+    With ``outputs`` = (C_g [m, K], C_d [m, K]) return y = C_g G + C_d BDF2(G) [T, m, B] instead of G.
     """
-    n_t, k, n_b = wash.shape
+    if isinstance(wash, tuple):
+        w_mat, inputs = wash
+        q_mat = sla.lu_solve(system.aic_lu, w_mat)  # [K, q]: quasi-steady strengths per unit input
+    else:
+        q_mat, inputs = None, wash
+    n_t, n_b = inputs.shape[0], inputs.shape[2]
+    k = system.n_panels
     ns, nw = system.n_span, system.n_wake
-    # quasi-steady part for all steps at once, and the wake-to-bound operator P = A0^-1 AW
-    gq = sla.lu_solve(system.aic_lu, wash.transpose(1, 0, 2).reshape(k, n_t * n_b)).reshape(k, n_t, n_b)
-    gq = gq.transpose(1, 0, 2)  # [T, K, B]
+
+    def gq_rows(rows: np.ndarray | slice) -> np.ndarray:
+        """Quasi-steady strengths A0^-1 w of the given panels for all steps [T, r, B]."""
+        if q_mat is not None:
+            return np.matmul(q_mat[rows], inputs)
+        full = sla.lu_solve(system.aic_lu, inputs.transpose(1, 0, 2).reshape(k, n_t * n_b))
+        return full.reshape(k, n_t, n_b)[rows].transpose(1, 0, 2)
+
     p = sla.lu_solve(system.aic_lu, system.aic_wake.reshape(k, nw * ns)).reshape(k, nw, ns)
     p_rev = np.ascontiguousarray(p[:, ::-1, :].reshape(k, nw * ns))  # column block s multiplies G_TE(n - nw + s)
     p_te = p_rev[system.te]
     hist = np.zeros((n_t + nw, ns, n_b))
-    gq_te = np.ascontiguousarray(gq[:, system.te, :])  # [T, ns, B]
+    gq_te = np.ascontiguousarray(gq_rows(system.te))  # [T, ns, B]
     every = max(1, n_t // 20)
     for n in range(n_t):  # the sequential trailing-edge recursion
         hist[n + nw] = gq_te[n] - p_te @ hist[n : n + nw].reshape(nw * ns, n_b)
         if progress is not None and n % every == 0:
             progress(0.9 * n / n_t, f"UVLM time march {n}/{n_t}")
     if outputs is None:
-        return gq - _window_product(p_rev, hist, nw, n_t)
+        return gq_rows(slice(None)) - _window_product(p_rev, hist, nw, n_t)
     c_g, c_d = outputs
-    y = np.matmul(c_g, gq) + np.matmul(c_d, bdf2(gq, system.dt_star))
+    if q_mat is not None:  # outputs of the quasi-steady part straight from the inputs
+        y = np.matmul(c_g @ q_mat, inputs) + np.matmul(c_d @ q_mat, bdf2(inputs, system.dt_star))
+    else:
+        gq = gq_rows(slice(None))
+        y = np.matmul(c_g, gq) + np.matmul(c_d, bdf2(gq, system.dt_star))
     y -= _window_product(c_g @ p_rev, hist, nw, n_t)
     y -= _window_product(c_d @ p_rev, bdf2(hist, system.dt_star), nw, n_t)
     return y
@@ -513,7 +529,8 @@ class UvlmSolver:
         fine = substep_signals(sig, r)
         system = self.build(lattice_mesh, mach, dt_star / r)
         w_d, w_v = system.wash_matrices(lattice_shapes)
-        wash = np.matmul(w_d, fine) + np.matmul(w_v, bdf2(fine, system.dt_star))  # [T_fine, K, B]
+        inputs = np.concatenate([fine, bdf2(fine, system.dt_star)], axis=1)  # [T_fine, 2m, B]: u and du/dt*
+        wash = (np.hstack([w_d, w_v]), inputs)  # w = W_d u + W_v u', kept factored
         gac = march(system, wash, progress, outputs=system.output_matrices(lattice_shapes))[::r]
         if progress is not None:
             progress(1.0, "UVLM done")
