@@ -157,12 +157,10 @@ def write_flutter_plots(directory: Path, results: list[Any]) -> list[str]:
     directory.mkdir(parents=True, exist_ok=True)
     paths = []
     for r in results:
-        fig = fplots.plot_vg(r)
         for ext in ("png", "svg"):
             p = directory / f"vg_M{r.mach:.2f}.{ext}"
-            fig.savefig(p, dpi=120)
+            p.write_bytes(fplots.vg_plot(r, fmt=ext))
             paths.append(str(p))
-        fplots.close(fig)
     return paths
 
 

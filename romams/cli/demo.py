@@ -1,0 +1,229 @@
+"""``romams demo``: the ROM-AMS paper's whole pipeline on the embedded default (local SQLite store)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import typer
+
+from romams.cli.app import app
+from romams.pipeline import (
+    PAPER_MACHS,
+    SweepChoice,
+    ensure_basis,
+    ensure_roms,
+    flutter_pms,
+    resolve_wing,
+    result_row,
+    rom_identity,
+    train_shapes,
+)
+
+#: Two contrasting designs of the cropped delta wing (like the paper's var1 and var2): a stiff beam far
+#: aft with a heavy outboard mass and a thin plate, and a light forward beam with a small inboard mass.
+DEMO_DESIGNS = {
+    "var1": {"x1": 0.65, "x2": 0.60, "x3": 0.82, "x4": 0.09, "x5": 1.8, "x6": 1.5, "x7": 0.6},
+    "var2": {"x1": 0.20, "x2": 0.25, "x3": 0.62, "x4": 0.02, "x5": 0.8, "x6": 0.8, "x7": 0.9},
+}
+
+#: Number of structures analysed in the paper's optimization (for the timing extrapolation).
+PAPER_STRUCTURES = 4530
+
+
+class _Console:
+    """Readable progress on stderr (stdout stays free)."""
+
+    def __init__(self) -> None:
+        from rich.console import Console
+
+        self.c = Console(stderr=True, highlight=False)
+        self.t0 = time.perf_counter()
+
+    def step(self, text: str) -> None:
+        """A numbered step headline."""
+        self.c.rule(f"[bold]{text}")
+
+    def __call__(self, text: str) -> None:
+        """One log line with the elapsed time."""
+        self.c.print(f"[dim]{time.perf_counter() - self.t0:6.1f} s[/dim]  {text}")
+
+
+def _median_ms(fn: Any, repeats: int) -> float:
+    """Median wall time of ``fn()`` in milliseconds."""
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return 1e3 * float(np.median(times))
+
+
+def _envelope_json(env: Any) -> list[dict[str, Any]]:
+    """Per-Mach envelope rows."""
+    return [{"mach": float(m), "q_flutter_pa": None if not math.isfinite(q) else float(q),
+             "q_safe_pa": None if not math.isfinite(qs) else float(qs), "safe_altitude_m": float(h), "status": s}
+            for m, q, qs, h, s in zip(env.mach, env.q_flutter_pa, env.q_safe_pa, env.safe_altitude_m, env.status,
+                                      strict=True)]
+
+
+def _plots(out: Path, baseline_eval: Any, designs: dict[str, Any], basis: Any, mesh: Any) -> list[str]:
+    """Envelope, V-g / V-omega and basis figures; returns paths."""
+    from romams.plots import basis as bplots
+    from romams.plots import flutter as fplots
+
+    paths: list[str] = []
+    fig = bplots.plot_basis_shapes(mesh, basis.shapes, basis.singular_values)
+    bplots.save(fig, str(out / "basis_shapes.png"))
+    paths.append(str(out / "basis_shapes.png"))
+    envs = {k: v.envelope for k, v in designs.items()}
+    for ext in ("png", "svg"):
+        (out / f"envelope.{ext}").write_bytes(fplots.envelope_plot(envs, baseline_eval.envelope, fmt=ext))
+        paths.append(str(out / f"envelope.{ext}"))
+    for name, ev in designs.items():
+        for r in ev.flutter:
+            p = out / f"vg_{name}_M{r.mach:.2f}.png"
+            p.write_bytes(fplots.vg_plot(r, title=f"{name}, M = {r.mach:.2f} ({r.sweep}, {r.coupling})"))
+            paths.append(str(p))
+    return paths
+
+
+@app.command("demo")
+def demo_command(
+    quick: bool = typer.Option(False, "--quick", help="coarser settings (for CI): fewer samples, shorter signals"),
+    out: Path = typer.Option(Path("demo-out"), "--out", help="output directory for summary.json and plots"),
+    processes: int = typer.Option(0, "--processes", min=0, help="parallel training processes (0: CPU count)"),
+) -> None:
+    """Run the ROM-AMS pipeline on the cropped delta wing and write DIR/summary.json plus plots."""
+    from romams.store import open_store
+    from romams_core.basis import project
+    from romams_core.evaluate import evaluate_structure
+    from romams_core.mesh import standard_mesh
+    from romams_core.structure.modal import modal_analysis
+
+    log = _Console()
+    out.mkdir(parents=True, exist_ok=True)
+    procs = processes or os.cpu_count() or 1
+    samples = 12 if quick else 25
+    ident = rom_identity("uvlm", 8, 8)
+    sweep = SweepChoice("constant-speed")  # the paper's parametrization: V = M a(10 km), q swept
+    machs = list(PAPER_MACHS)
+    timings: dict[str, Any] = {}
+    store = open_store()
+
+    log.step("1. Cropped delta wing: bare baseline plate")
+    wing_id, wing = resolve_wing(store, "cropped-delta")
+    mesh = standard_mesh(wing.planform)
+    t = time.perf_counter()
+    base = modal_analysis(wing, None, 4, mesh)
+    log(f"baseline: mass {base.mass_kg:.4f} kg, frequencies " + ", ".join(f"{f:.2f}" for f in base.frequencies_hz)
+        + " Hz (measured 26.7, 88.2, 131.8)")
+
+    log.step(f"2. PCA basis: {samples} LHS samples x 4 modes")
+    t = time.perf_counter()
+    basis_id, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=4, mac_threshold=0.995,
+                                   max_basis=8, seed=0, log=log)
+    timings["pca_basis_s"] = time.perf_counter() - t
+    mac_table = np.asarray(basis.mac_table).reshape(-1, 4) if np.size(basis.mac_table) % 4 == 0 else None
+    log(f"{basis.n_basis} basis shapes, worst snapshot MAC {basis.min_mac:.5f}")
+
+    log.step(f"3. ARX ROM per Mach ({len(machs)} trainings, {min(procs, len(machs))} in parallel)")
+    t = time.perf_counter()
+    roms = ensure_roms(store, wing_id, wing, basis_id, basis, machs, ident=ident, processes=procs, log=log)
+    timings["training_wall_s"] = time.perf_counter() - t
+    timings["training_per_mach_s"] = float(np.mean([r.train_seconds for _, r in roms.values()]))
+    rom_objs = {m: r for m, (_, r) in roms.items()}
+    for m, (rid, r) in roms.items():
+        log(f"M = {m:.2f}: rom {rid}, {r.ss.A.shape[0]} states, validation NRMSE max {np.max(r.validation_nrmse):.2e}")
+
+    def evaluate(modal: Any, benchmark: Any = None) -> Any:
+        return evaluate_structure(modal, basis.shapes, rom_objs, sweep=sweep.sweep, benchmark=benchmark,
+                                  zeta=wing.modal_damping, flutter_options=sweep.flutter_options())
+
+    baseline_eval = evaluate(base)
+    log("benchmark envelope (baseline): " + ", ".join(
+        f"M {m:.2f}: {h:.0f} m" for m, h in zip(baseline_eval.envelope.mach, baseline_eval.envelope.safe_altitude_m,
+                                                strict=True)))
+
+    log.step("4. Two contrasting designs: ROM-AMS vs ROM-PMS")
+    design_rows = []
+    design_evals = {}
+    for name, design in DEMO_DESIGNS.items():
+        modal = modal_analysis(wing, design, 4, mesh)
+        ev = evaluate(modal, baseline_eval.envelope)
+        design_evals[name] = ev
+        t = time.perf_counter()
+        pms_roms = train_shapes(mesh, modal.shapes, machs, ident, procs)
+        pms = flutter_pms(modal, mesh, machs, ident, SweepChoice(sweep.sweep), roms=pms_roms)
+        timings.setdefault("rom_pms_training_s", []).append(time.perf_counter() - t)
+        rows = []
+        for ams, ref in zip(ev.flutter, pms, strict=True):
+            row = result_row(ams)
+            row["v_flutter_pms_m_s"] = result_row(ref)["v_flutter_m_s"]
+            row["omega_flutter_pms_rad_s"] = result_row(ref)["omega_flutter_rad_s"]
+            ok = row["v_flutter_m_s"] is not None and row["v_flutter_pms_m_s"] is not None
+            row["error_pct"] = 100.0 * (row["v_flutter_m_s"] / row["v_flutter_pms_m_s"] - 1.0) if ok else None
+            row["omega_error_pct"] = (100.0 * (row["omega_flutter_rad_s"] / row["omega_flutter_pms_rad_s"] - 1.0)
+                                      if ok else None)
+            rows.append(row)
+            log(f"{name} M {row['mach']:.2f}: ROM-AMS V_f {row['v_flutter_m_s']} m/s, ROM-PMS "
+                f"{row['v_flutter_pms_m_s']} m/s, error {row['error_pct']} %")
+        design_rows.append({
+            "name": name, "design": design, "mass_kg": float(modal.mass_kg),
+            "frequencies_hz": [float(f) for f in modal.frequencies_hz], "mac": [float(x) for x in ev.mac],
+            "results": rows, "envelope": _envelope_json(ev.envelope),
+            "envelope_ok": None if ev.comparison is None else bool(ev.comparison.envelope_ok),
+            "constraints_ok": bool(ev.constraints_ok), "message": ev.message,
+        })
+        log(f"{name}: mass {modal.mass_kg:.4f} kg, MAC " + ", ".join(f"{x:.4f}" for x in ev.mac)
+            + f"; {ev.message}")
+
+    log.step("5. Timing (per structure, one core)")
+    design = DEMO_DESIGNS["var1"]
+    modal_ms = _median_ms(lambda: modal_analysis(wing, design, 4, mesh), 7)
+    modal = modal_analysis(wing, design, 4, mesh)
+    flutter_ms = _median_ms(lambda: evaluate(modal, baseline_eval.envelope), 5)
+    proj_ms = _median_ms(lambda: project(basis.shapes, modal.shapes), 20)
+    per_structure_s = (modal_ms + flutter_ms) / 1e3
+    pms_per_structure_s = float(np.mean(timings["rom_pms_training_s"])) + per_structure_s
+    timings.update({
+        "modal_analysis_ms": modal_ms, "projection_ms": proj_ms, "flutter_5_machs_ms": flutter_ms,
+        "structure_eval_ms": modal_ms + flutter_ms,
+        "rom_ams_4530_structures_min": (timings["pca_basis_s"] + timings["training_wall_s"]
+                                        + PAPER_STRUCTURES * per_structure_s) / 60.0,
+        "rom_pms_per_structure_s": pms_per_structure_s,
+        "rom_pms_4530_structures_h": PAPER_STRUCTURES * pms_per_structure_s / 3600.0,
+        "rom_pms_over_rom_ams_per_structure": pms_per_structure_s / per_structure_s,
+        "processes": procs,
+    })
+    for k, v in timings.items():
+        log(f"{k}: {np.round(v, 3).tolist() if isinstance(v, list) else round(float(v), 3)}")
+
+    summary = {
+        "wing": wing.name,
+        "quick": quick,
+        "sweep": sweep.sweep,
+        "machs": machs,
+        "baseline": {"frequencies_hz": [float(f) for f in base.frequencies_hz], "mass_kg": float(base.mass_kg),
+                     "envelope": _envelope_json(baseline_eval.envelope),
+                     "results": [result_row(r) for r in baseline_eval.flutter]},
+        "basis": {"n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac), "samples": samples, "modes": 4,
+                  "mac_threshold": float(basis.mac_threshold),
+                  "mac_table": None if mac_table is None else np.round(mac_table, 6).tolist()},
+        "roms": [{"mach": m, "rom_id": rid, "validation_nrmse": [float(x) for x in r.validation_nrmse],
+                  "states": int(r.ss.A.shape[0]), "train_seconds": float(r.train_seconds)}
+                 for m, (rid, r) in roms.items()],
+        "designs": design_rows,
+        "timings": timings,
+    }
+    summary["plots"] = _plots(out, baseline_eval, design_evals, basis, mesh)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    log(f"wrote {out / 'summary.json'} and {len(summary['plots'])} plots in {time.perf_counter() - log.t0:.1f} s")
+
+
+__all__ = ["demo_command", "DEMO_DESIGNS"]
