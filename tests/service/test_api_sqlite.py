@@ -99,7 +99,8 @@ def _direct(svc, design):
     bid, basis = store.latest_basis(svc.wing_id)
     roms = {r["mach"]: store.load_rom(r["id"]) for r in store.list_roms(svc.wing_id, bid)}
     modal = modal_analysis(wing, design=wing.design_vector(design), n_modes=basis.n_modes)
-    return evaluate_structure(modal, basis.shapes, roms, mac_threshold=basis.mac_threshold)
+    return evaluate_structure(modal, basis.shapes, roms, mac_threshold=basis.mac_threshold,
+                              zeta=wing.modal_damping or None)  # the service applies the wing's damping
 
 
 def test_single_flutter_evaluation_matches_the_core(svc):
