@@ -7,6 +7,7 @@ so ``romams serve`` needs no server. Distributed: set ``ROMAMS_DATABASE_URL`` to
 
 from __future__ import annotations
 
+import os
 from functools import lru_cache
 from pathlib import Path
 from typing import Annotated
@@ -43,7 +44,8 @@ class Settings(BaseSettings):
     job_stale_s: float = Field(default=60.0, gt=0, description="a running job untouched this long is re-sent")
     broker_poll_s: float = Field(default=0.05, gt=0, description="poll period of the server-less SQLite broker")
     broker_visibility_timeout_s: int = Field(default=3600, ge=1, description="Redis: unacked message redelivery")
-    worker_concurrency: int = Field(default=1, ge=1, description="processes of the embedded/child worker")
+    worker_concurrency: int = Field(default_factory=lambda: max(1, min(4, os.cpu_count() or 1)), ge=1,
+                                    description="processes of a worker (default: CPU cores, at most 4)")
     host: str = Field(default="127.0.0.1", description="bind address of `romams serve`")
     port: int = Field(default=8000, ge=1, le=65535, description="port of `romams serve`")
 

@@ -145,6 +145,11 @@ def start_training(wing: str, body: RomRequest, response: Response, svc: Service
         if bad:
             raise invalid("mach" if body.mach is not None else "machs",
                           f"the linear UVLM is subsonic only (Mach < 1), got {bad[0]}")
+    if body.solver == "tsd":
+        import importlib.util
+
+        if importlib.util.find_spec("romams_core.aero.tsd") is None:
+            raise invalid("solver", "the transonic small-disturbance solver is not available on this server")
     options = _train_options(body.options)
     identity = {"solver": body.solver, "na": body.na, "nb": body.nb, "options": options}
     machs = [float(body.mach)] if body.mach is not None else [float(m) for m in body.machs or []]

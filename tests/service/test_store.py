@@ -182,3 +182,14 @@ def test_job_transitions_are_guarded(store):
     assert not store.cancel_job(parent)
     with pytest.raises(ValueError, match="status"):
         store.finish_job(parent, "running")
+
+
+def test_worker_lru_cache_is_bounded():
+    from worker.cache import LruCache
+
+    c = LruCache(2)
+    loads = []
+    for key in ["a", "b", "a", "c", "b", "a"]:
+        c.get_or_load(key, lambda k=key: loads.append(k) or k.upper())
+    # a, b loaded; a hit; c evicts b; b reloaded evicts a; a reloaded
+    assert loads == ["a", "b", "c", "b", "a"] and len(c) == 2 and c.hits == 1 and c.misses == 5
