@@ -23,7 +23,8 @@ def data_dir(tmp_path, monkeypatch):
 def test_train_command_json_plots_and_store(data_dir):
     plots = data_dir / "plots"
     runner = CliRunner()
-    res = runner.invoke(app, ["train", "--wing", "cropped-delta", "--mach", "0.87", "--json", "--plot", str(plots)])
+    args = ["train", "--wing", "cropped-delta", "--mach", "0.87", "--n-steps", "1200", "--json", "--plot", str(plots)]
+    res = runner.invoke(app, args)
     assert res.exit_code == 0, res.output
     rep = json.loads(res.stdout)
     for key in ("rom_id", "mach", "n_basis", "validation_nrmse", "train_seconds"):
@@ -39,7 +40,7 @@ def test_train_command_json_plots_and_store(data_dir):
     np.testing.assert_allclose(rom.validation_nrmse, rep["validation_nrmse"], rtol=1e-12)
     assert rom.ss.is_stable()
     # the same request again finds the stored ROM instead of retraining
-    again = json.loads(runner.invoke(app, ["train", "--mach", "0.87", "--json"]).stdout)
+    again = json.loads(runner.invoke(app, ["train", "--mach", "0.87", "--n-steps", "1200", "--json"]).stdout)
     assert again["rom_id"] == rep["rom_id"]
 
 
