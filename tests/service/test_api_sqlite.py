@@ -19,7 +19,8 @@ from fastapi.testclient import TestClient
 
 from api.app import create_app
 from romams.settings import Settings
-from tests.service.conftest import WorkerProcess, service_env, wait_job
+
+from .conftest import WorkerProcess, service_env, wait_job
 
 MACHS = [0.79, 0.87]
 DESIGN = {"x1": 0.3, "x2": 0.4, "x3": 0.7, "x4": 0.05, "x5": 1.0, "x6": 1.0, "x7": 0.8}
@@ -250,7 +251,7 @@ def test_killed_worker_machine_job_is_resent_by_the_sweeper(svc):
 
 
 def test_flutter_bad_input_is_rejected_and_stores_nothing(svc):
-    from tests.service.test_bad_input import problem
+    from .test_bad_input import problem
 
     c, url = svc.client, f"/api/v1/wings/{svc.wing_id}/flutter"
     n_eval = len(c.get("/api/v1/evaluations", params={"limit": 500}).json())

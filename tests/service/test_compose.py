@@ -9,7 +9,8 @@ import tomllib
 import yaml
 
 from romams.settings import Settings
-from tests.service.conftest import ROOT
+
+from .conftest import ROOT
 
 COMPOSE = yaml.safe_load((ROOT / "docker-compose.yml").read_text())
 SERVICES = COMPOSE["services"]

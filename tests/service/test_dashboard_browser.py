@@ -14,7 +14,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.service.conftest import CI, ROOT, service_env
+from .conftest import CI, ROOT, service_env
 
 pytestmark = pytest.mark.browser
 CHROMIUM = "/usr/bin/chromium"

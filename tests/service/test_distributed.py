@@ -16,7 +16,8 @@ from fastapi.testclient import TestClient
 
 from api.app import create_app
 from romams.settings import Settings
-from tests.service.conftest import ROOT, WorkerProcess, service_env, wait_job
+
+from .conftest import ROOT, WorkerProcess, service_env, wait_job
 
 pytestmark = pytest.mark.services
 

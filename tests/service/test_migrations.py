@@ -11,7 +11,8 @@ from sqlalchemy import create_engine, inspect
 
 from romams.db import Base
 from romams.store import head_revision
-from tests.service.conftest import ROOT
+
+from .conftest import ROOT
 
 
 def _alembic(args: list[str], url: str, cwd=ROOT) -> subprocess.CompletedProcess:
