@@ -94,8 +94,10 @@ def _evaluations_html(svc: Service) -> str:
             f'{e(ev["created_at"])}): mass {_num(sm.get("mass_kg"), ".4g")} kg, envelope ok: '
             f'{e(sm.get("envelope_ok"))}</h4><table><tr><th>Mach</th><th>V_f (m/s)</th><th>&omega;_f (rad/s)</th>'
             f'<th>q_f (Pa)</th><th>mode</th><th>SDOFF</th><th>safe altitude (m)</th></tr>{rows}</table>'
-            f'<img alt="V-g and V-omega" loading="lazy" src="/api/v1/evaluations/{ev["id"]}/plot.png?kind=vg">'
-            f'<img alt="envelope" loading="lazy" src="/api/v1/evaluations/{ev["id"]}/plot.png?kind=envelope"></div>')
+            + "".join(f'<img class="vg" alt="V-g and V-f at Mach {r.get("mach")}" loading="lazy" '
+                      f'src="/api/v1/evaluations/{ev["id"]}/plot.png?kind=vg&amp;mach={r.get("mach")}">'
+                      for r in sm.get("results", []))
+            + f'<img alt="envelope" loading="lazy" src="/api/v1/evaluations/{ev["id"]}/plot.png?kind=envelope"></div>')
     return "".join(parts) or "<p>No evaluation yet.</p>"
 
 

@@ -209,26 +209,39 @@ def vg_data(evaluation_id: int, svc: Service = Depends(service)) -> dict[str, An
 
 
 @router.get("/evaluations/{evaluation_id}/plot.{fmt}")
-def evaluation_plot(evaluation_id: int, fmt: Literal["png", "svg"],
-                    kind: Literal["vg", "envelope"] = "vg", svc: Service = Depends(service)) -> Response:
-    """V-g / V-omega plot, or the envelope of this design vs the wing's baseline, as PNG or SVG."""
-    ev = _evaluation_or_404(svc, evaluation_id, full=True)
-    from api import plots
+def evaluation_plot(evaluation_id: int, fmt: Literal["png", "svg"], kind: Literal["vg", "envelope"] = "vg",
+                    mach: float | None = Query(default=None, gt=0, lt=5), svc: Service = Depends(service)) -> Response:
+    """V-g / V-f plot of one Mach (default: the first), or the envelope of this design vs the baseline (PNG/SVG)."""
+    from romams.plots import flutter as flutter_plots
 
+    ev = _evaluation_or_404(svc, evaluation_id, full=True)
+    results = flutter_results(ev["result"])
     if kind == "vg":
-        fig = plots.vg_figure(flutter_results(ev["result"]))
+        if not results:
+            raise Problem(404, f"evaluation_id: evaluation {evaluation_id} has no flutter results", "evaluation_id")
+        pick = results[0]
+        if mach is not None:
+            found = [r for r in results if abs(float(r.mach) - mach) < 1e-6]
+            if not found:
+                raise invalid("mach", f"{mach} is not in this evaluation; Machs: {[float(r.mach) for r in results]}")
+            pick = found[0]
+        fig = flutter_plots.vg_figure(pick)
     else:
-        fig = plots.envelope_figure(ev["result"], baseline_summary(svc, ev))
+        base = baseline_evaluation(svc, ev)
+        fig = flutter_plots.envelope_figure({f"evaluation {evaluation_id}": ev["result"].envelope},
+                                            benchmark=None if base is None else base.envelope)
     return figure_response(fig, fmt)
 
 
-def baseline_summary(svc: Service, ev: dict[str, Any]) -> dict[str, Any] | None:
-    """Summary of the wing's baseline evaluation on the same basis, if one is stored."""
-    for other in svc.store.list_evaluations(ev["wing_id"], limit=200):
-        req = (svc.store.get_evaluation(other["id"]) or {}).get("request", {})
-        if other["basis_id"] == ev["basis_id"] and req.get("design") is None and req.get("modes_id") is None \
-                and other["method"] == ev["method"]:
-            return other["summary"]
+def baseline_evaluation(svc: Service, ev: dict[str, Any]) -> Any:
+    """The stored evaluation of the wing's baseline on the same basis (full result), if there is one."""
+    for other in svc.store.list_evaluations(ev["wing_id"], limit=500):
+        if other["basis_id"] != ev["basis_id"] or other["method"] != ev["method"]:
+            continue
+        full = svc.store.get_evaluation(other["id"], full=True) or {}
+        req = full.get("request", {})
+        if req.get("design") is None and req.get("modes_id") is None and req.get("modes") is None:
+            return full["result"]
     return None
 
 

@@ -143,9 +143,12 @@ def test_baseline_evaluation_and_envelope_plots(svc):
     for m in vg["machs"]:
         v, g, w = np.array(m["v_m_s"]), np.array(m["g"], dtype=float), np.array(m["omega_rad_s"], dtype=float)
         assert v.ndim == 1 and g.shape == w.shape == (v.size, 3) and np.all(np.diff(v) > 0)
-    for kind, fmt, magic in (("vg", "png", b"\x89PNG"), ("envelope", "svg", b"<?xml")):
-        p = svc.client.get(f"/api/v1/evaluations/{eid}/plot.{fmt}", params={"kind": kind})
+    for params, fmt, magic in (({"kind": "vg"}, "png", b"\x89PNG"), ({"kind": "vg", "mach": 0.87}, "svg", b"<?xml"),
+                               ({"kind": "envelope"}, "svg", b"<?xml")):
+        p = svc.client.get(f"/api/v1/evaluations/{eid}/plot.{fmt}", params=params)
         assert p.status_code == 200 and p.content.startswith(magic), p.text[:200]
+    bad = svc.client.get(f"/api/v1/evaluations/{eid}/plot.png", params={"kind": "vg", "mach": 0.5})
+    assert bad.status_code == 422 and bad.json()["field"] == "mach"
     listed = svc.client.get("/api/v1/evaluations", params={"wing_id": svc.wing_id}).json()
     assert eid in [e["id"] for e in listed]
 
