@@ -115,7 +115,7 @@ def train_rom(
     seed: int = 0,
     nrmse_tol: float = 0.02,
     ridge: float = 0.0,
-    reduce_order: int | str | None = None,
+    reduce_order: int | str | None = "auto",
     hsv_tol: float | None = None,
     reduce_tol: float = 0.002,
     progress: ProgressFn | None = None,
@@ -126,8 +126,9 @@ def train_rom(
     surface displacement 1 % of c_ref; run as [train | validation] in one call. The ARX (orders na, nb, ridge)
     is fitted on the training half and checked in free run on the validation half: any output with NRMSE
     > nrmse_tol raises TrainingError naming it, as does a model that cannot be stabilized (unstable, unexcited
-    ARX poles are reflected into the unit circle, with a warning). Reduction: ``reduce_order`` = an int or
-    ``hsv_tol`` (plain balanced truncation), or "auto": the smallest order (steps of m) of a frequency-limited
+    ARX poles are reflected into the unit circle, with a warning). Reduction (default "auto"; None keeps the
+    full ARX realization): ``reduce_order`` = an int or ``hsv_tol`` (plain balanced truncation), or "auto":
+    the smallest order (steps of m) of a frequency-limited
     balanced truncation (|k| <= k_max) that is stable and keeps every validation NRMSE <= ``reduce_tol``
     (falls back to the full model). The reduced model must meet nrmse_tol too. Default dt_star = 1 / n_chord.
     """

@@ -52,7 +52,7 @@ def test_signals_are_band_limited_uncorrelated_tapered_and_scaled():
 def test_train_rom_on_synthetic_shapes_and_tolerance_failure():
     mesh, shapes = _synthetic()
     solver = UvlmSolver(wake_chords=10.0)
-    rom = train_rom(mesh, shapes, 0.6, solver, na=6, nb=6, n_steps=1200)
+    rom = train_rom(mesh, shapes, 0.6, solver, na=6, nb=6, n_steps=1200, reduce_order=None)
     assert rom.validation_nrmse.shape == (3,)
     assert rom.validation_nrmse.max() < 0.01
     assert rom.spectral_radius < 1.0 and rom.ss.n_states == 3 * (6 + 5)
