@@ -9,13 +9,19 @@ and distributed (Redis broker + PostgreSQL).
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
-from celery import Celery
-from celery.signals import worker_process_init
-from kombu import Exchange, Queue
+# One BLAS thread per worker process: the pool already runs one process per core, and oversubscribed
+# OpenBLAS threads make small dense eigenproblems several times slower. Set before numpy is imported.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-from romams.settings import Settings, get_settings
+from celery import Celery  # noqa: E402
+from celery.signals import worker_process_init  # noqa: E402
+from kombu import Exchange, Queue  # noqa: E402
+
+from romams.settings import Settings, get_settings  # noqa: E402
 
 TRAINING_QUEUE = "training"
 EVALUATION_QUEUE = "evaluation"
