@@ -45,6 +45,10 @@ async def upload_modes(bdf: UploadFile | None = File(default=None), op2: UploadF
                 except ImportError as exc:
                     raise Problem(501, "bdf: Nastran support (pyNastran) is not installed on this server",
                                   "bdf") from exc
+                except ValueError:
+                    raise
+                except Exception as exc:  # noqa: BLE001 - pyNastran's own errors on unreadable files
+                    raise invalid("bdf", f"could not read the BDF/OP2 pair ({type(exc).__name__}: {exc})") from exc
                 source, name = "nastran", f"{bdf.filename} + {op2.filename}"
             elif file is not None:
                 fname = (file.filename or "").lower()
