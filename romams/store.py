@@ -164,6 +164,11 @@ def open_store(settings: Settings | None = None, *, migrate: bool | None = None)
             fcntl.flock(lock, fcntl.LOCK_EX)
             if schema_revision(engine) != head_revision():
                 upgrade(url)
+    else:
+        current = schema_revision(engine)
+        if current != head_revision():
+            raise RuntimeError(f"database: schema at revision {current!r}, this code needs {head_revision()!r}; "
+                               "run `alembic upgrade head` (or `python -m romams.store upgrade`)")
     return Store(engine, settings)
 
 

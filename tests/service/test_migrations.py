@@ -82,3 +82,15 @@ def test_packaged_alembic_ini_works_from_any_directory(tmp_path):
 def test_postgres_upgrade_head_matches_models(pg_url):
     assert _revision(pg_url) is None  # a fresh, empty database
     _check_upgrade_downgrade(pg_url)
+
+
+@pytest.mark.services
+def test_open_store_refuses_an_unmigrated_postgres_database(pg_url, tmp_path):
+    from romams.settings import Settings
+    from romams.store import open_store
+
+    with pytest.raises(RuntimeError, match="alembic upgrade head"):
+        open_store(Settings(data_dir=tmp_path, database_url=pg_url))
+    assert _alembic(["upgrade", "head"], pg_url).returncode == 0
+    store = open_store(Settings(data_dir=tmp_path, database_url=pg_url))
+    assert store.engine.dialect.name == "postgresql" and store.list_wings() == []
