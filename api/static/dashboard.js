@@ -3,7 +3,8 @@
 (function () {
   const tbody = document.querySelector("#jobs tbody");
   const state = document.getElementById("poll-state");
-  let finishedSeen = new Set();
+  const finishedSeen = new Set();
+  let initialized = false;
 
   function esc(s) {
     return String(s === null || s === undefined ? "" : s)
@@ -25,15 +26,16 @@
       const jobs = await r.json();
       tbody.innerHTML = jobs.map(row).join("");
       state.textContent = "updated " + new Date().toLocaleTimeString();
-      // a job that just finished may have produced a basis, ROM or evaluation: refresh those sections
-      let reload = false;
+      // a job that finished since the last poll may have produced a basis, ROM or evaluation
+      let fresh = false;
       for (const j of jobs) {
-        const done = j.status === "succeeded";
-        if (done && !finishedSeen.has(j.id)) { if (finishedSeen.size) reload = true; }
-        if (done) finishedSeen.add(j.id);
+        if (j.status === "succeeded" && !finishedSeen.has(j.id)) {
+          if (initialized) fresh = true;
+          finishedSeen.add(j.id);
+        }
       }
-      if (reload) refreshSections();
-      if (!finishedSeen.size) finishedSeen.add("-");
+      initialized = true;
+      if (fresh) refreshSections();
     } catch (err) {
       state.textContent = "poll failed: " + err.message;
     }
