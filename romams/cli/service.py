@@ -21,6 +21,16 @@ def worker_command(queues: str, concurrency: int, loglevel: str, hostname: str |
     return cmd
 
 
+def _die_with_parent() -> None:
+    """In the child (Linux): receive SIGTERM when the parent dies, however it dies (uvicorn re-raises SIGTERM)."""
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
 @app.command()
 def serve(
     host: str = typer.Option(None, help="bind address (default ROMAMS_HOST or 127.0.0.1)"),
@@ -40,7 +50,8 @@ def serve(
     child = None
     if worker:
         child = subprocess.Popen(worker_command("training,evaluation", concurrency or settings.worker_concurrency,
-                                                loglevel, "embedded@%h"), env=dict(os.environ))
+                                                loglevel, "embedded@%h"), env=dict(os.environ),
+                                 preexec_fn=_die_with_parent)
         typer.echo(f"embedded worker pid {child.pid} (broker {settings.broker.split('://')[0]})", err=True)
     typer.echo(f"romams API on http://{host or settings.host}:{port or settings.port}/dashboard "
                f"(database {settings.db_url.split(':')[0]})", err=True)

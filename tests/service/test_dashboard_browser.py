@@ -55,6 +55,9 @@ def server(tmp_path):
         if proc.poll() is not None or time.monotonic() > deadline:
             raise AssertionError((tmp_path / "serve.log").read_text()[-3000:])
         time.sleep(0.3)
+    children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children")
+    worker_pids = [int(p) for p in children.read_text().split()]
+    assert worker_pids, "romams serve started no child worker"
     try:
         yield base, tmp_path
     finally:
@@ -64,6 +67,20 @@ def server(tmp_path):
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
         log.close()
+        deadline = time.monotonic() + 60  # the embedded worker goes with the server (warm shutdown)
+        while any(Path(f"/proc/{p}").exists() and "zombie" not in _state(p) for p in worker_pids):
+            if time.monotonic() > deadline:
+                os.killpg(proc.pid, signal.SIGKILL)
+                raise AssertionError("the embedded worker outlived `romams serve`")
+            time.sleep(0.2)
+
+
+def _state(pid: int) -> str:
+    """Process state line from /proc (empty if gone)."""
+    try:
+        return next(line for line in Path(f"/proc/{pid}/status").read_text().splitlines() if line.startswith("State"))
+    except (OSError, StopIteration):
+        return "zombie"
 
 
 def test_dashboard_shows_a_job_reaching_100_percent(server):
