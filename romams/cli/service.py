@@ -35,31 +35,39 @@ def _die_with_parent() -> None:
 def serve(
     host: str = typer.Option(None, help="bind address (default ROMAMS_HOST or 127.0.0.1)"),
     port: int = typer.Option(None, help="port (default ROMAMS_PORT or 8000)"),
-    worker: bool = typer.Option(True, help="start an embedded child Celery worker"),
-    concurrency: int = typer.Option(None, help="processes of the embedded worker (default ROMAMS_WORKER_CONCURRENCY)"),
-    loglevel: str = typer.Option("warning", help="log level of uvicorn and the worker"),
+    worker: bool = typer.Option(True, help="start embedded child Celery workers"),
+    concurrency: int = typer.Option(None, help="processes per embedded worker (default ROMAMS_WORKER_CONCURRENCY)"),
+    split_queues: bool = typer.Option(True, help="one child for training, one for evaluation (evaluations stay "
+                                                 "fast while a training runs); else one child for both queues"),
+    loglevel: str = typer.Option("warning", help="log level of uvicorn and the workers"),
 ) -> None:
-    """Run the HTTP API and dashboard; by default also a child worker on the same (embedded) database and broker."""
+    """Run the HTTP API and dashboard; by default also child workers on the same (embedded) database and broker."""
     import uvicorn
 
     from romams.settings import get_settings
     from romams.store import open_store
 
     settings = get_settings()
-    open_store(settings)  # creates the data dir and migrates SQLite before the worker starts
-    child = None
+    open_store(settings)  # creates the data dir and migrates SQLite before the workers start
+    n = concurrency or settings.worker_concurrency
+    plan = ([("training", max(1, n // 2), "training@%h"), ("evaluation", n, "evaluation@%h")] if split_queues
+            else [("training,evaluation", n, "embedded@%h")])
+    children: list[subprocess.Popen] = []
     if worker:
-        child = subprocess.Popen(worker_command("training,evaluation", concurrency or settings.worker_concurrency,
-                                                loglevel, "embedded@%h"), env=dict(os.environ),
-                                 preexec_fn=_die_with_parent)
-        typer.echo(f"embedded worker pid {child.pid} (broker {settings.broker.split('://')[0]})", err=True)
+        for queues, procs, name in plan:
+            children.append(subprocess.Popen(worker_command(queues, procs, loglevel, name), env=dict(os.environ),
+                                             preexec_fn=_die_with_parent))
+            typer.echo(f"embedded worker pid {children[-1].pid}: queues {queues}, {procs} process(es), "
+                       f"broker {settings.broker.split('://')[0]}", err=True)
     typer.echo(f"romams API on http://{host or settings.host}:{port or settings.port}/dashboard "
                f"(database {settings.db_url.split(':')[0]})", err=True)
     try:
         uvicorn.run("api.app:app", host=host or settings.host, port=port or settings.port, log_level=loglevel)
     finally:
-        if child is not None and child.poll() is None:
-            child.send_signal(signal.SIGTERM)
+        for child in children:
+            if child.poll() is None:
+                child.send_signal(signal.SIGTERM)
+        for child in children:
             try:
                 child.wait(timeout=30)
             except subprocess.TimeoutExpired:

@@ -57,7 +57,7 @@ def server(tmp_path):
         time.sleep(0.3)
     children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children")
     worker_pids = [int(p) for p in children.read_text().split()]
-    assert worker_pids, "romams serve started no child worker"
+    assert len(worker_pids) == 2, "romams serve starts a training and an evaluation worker"
     try:
         yield base, tmp_path
     finally:
