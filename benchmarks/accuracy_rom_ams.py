@@ -27,7 +27,7 @@ from romams_core.structure.modal import modal_analysis
 from romams_core.wing import template
 
 
-def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: int = 25, mac_threshold: float = 0.995,
+def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: int = 25, mac_threshold: float = 0.9999,
         max_basis: int = 8, seed: int = 7, sweep: str = "constant-speed", processes: int | None = None,
         ident: dict[str, Any] | None = None) -> dict[str, Any]:
     """Run the comparison; returns a JSON-able dict with per-design rows and statistics."""

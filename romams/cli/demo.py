@@ -126,7 +126,7 @@ def demo_command(
 
     log.step(f"2. PCA basis: {samples} LHS samples x 4 modes")
     t = time.perf_counter()
-    basis_id, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=4, mac_threshold=0.995,
+    basis_id, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=4, mac_threshold=0.9999,
                                    max_basis=8, seed=0, log=log)
     timings["pca_basis_s"] = time.perf_counter() - t
     mac_table = np.asarray(basis.mac_table).reshape(-1, 4) if np.size(basis.mac_table) % 4 == 0 else None
