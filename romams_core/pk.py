@@ -1,0 +1,387 @@
+"""p-k flutter solution with a frequency-domain aerodynamic operator: the full-order reference for the ROMs.
+
+Structure in mass-normalized modal coordinates (M = I), modal damping ratios zeta, aerodynamics as the
+harmonic transfer matrix H(k) [k x k] (generalized force per unit q and unit modal amplitude, f = H(k) xi
+for xi ~ e^{i omega t}), reduced frequency k = omega b / V on b = c_ref / 2 (the UVLM's convention).
+
+British (p-k) form: for each structural branch j, find the root p of
+
+    det(p^2 I + 2 zeta diag(omega) p + diag(omega^2) - q H(k)) = 0,   k = Im(p) b / V,
+
+i.e. the aerodynamic matrix is the harmonic one at the root's own frequency. For fixed k the equation is a
+linear eigenproblem of the complex first-order matrix [[0, I], [-(K - q H(k)), -G]]; the k of branch j is
+updated from the chosen root (the one nearest the branch's previous estimate, with Im p >= 0) until
+|k_new - k_old| <= k_tol (1 + k) (direct substitution; ``k_tol`` default 1e-9). Each iteration solves the
+eigenproblems of all branches as one batched ``numpy.linalg.eigvals``.
+
+Damping convention: p = omega (gamma + i), gamma = Re(p) / Im(p); Nastran's g = 2 gamma, positive = unstable
+(the same sign as ``flutter.FlutterResult.g``, which is 2 Re(s)/|s|, equal to 2 gamma at gamma = 0). At the
+flutter point gamma = 0, the motion is harmonic and p-k is exact (k-method and p-k coincide there); away
+from it gamma is the usual p-k approximation of the damping.
+
+Sweeps as in ``romams_core.flutter``: "constant-density" (V swept at rho_ref), "constant-speed"
+(V = M a_ref, density swept, i.e. q; reported v = sqrt(2 q_f / rho_ref)) and "matched" (altitude swept with
+V = M a(h)). The first zero crossing of gamma on a structural branch is refined with ``scipy.optimize.brentq``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.optimize import brentq
+
+from romams_core.atmosphere import isa, isa_table
+from romams_core.mesh import StandardMesh
+
+SWEEPS = ("constant-density", "constant-speed", "matched")
+DEFAULT_ALTITUDE_REF_M = 10_000.0
+
+AeroFn = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass
+class AeroTable:
+    """Harmonic GAC matrix H [nk, m, m] (m^3 for modes in m) tabulated at ascending reduced frequencies k [nk]."""
+
+    k: np.ndarray
+    h: np.ndarray
+    mach: float = float("nan")
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        self.k = np.asarray(self.k, dtype=float)
+        self.h = np.asarray(self.h, dtype=complex)
+        if self.k.ndim != 1 or self.k.size < 4:
+            raise ValueError(f"k: must be a 1-D grid of at least 4 reduced frequencies, got shape {self.k.shape}")
+        if not np.all(np.isfinite(self.k)) or np.any(np.diff(self.k) <= 0) or self.k[0] < 0:
+            raise ValueError("k: must be finite, >= 0 and strictly ascending")
+        if self.h.ndim != 3 or self.h.shape[0] != self.k.size or self.h.shape[1] != self.h.shape[2]:
+            raise ValueError(f"h: must have shape ({self.k.size}, m, m), got {self.h.shape}")
+        if not np.all(np.isfinite(self.h)):
+            raise ValueError("h: contains non-finite values")
+        self._spline = CubicSpline(self.k, self.h, axis=0)
+
+    def __call__(self, k: np.ndarray) -> np.ndarray:
+        """H at reduced frequencies k [n] (cubic spline per entry; k outside the table raises ValueError)."""
+        k = np.atleast_1d(np.asarray(k, dtype=float))
+        lo, hi = self.k[0], self.k[-1]
+        tol = 1e-9 * max(hi, 1.0)
+        if np.any(k < lo - tol) or np.any(k > hi + tol):
+            raise ValueError(f"k: reduced frequency {float(k.min()):.6g} .. {float(k.max()):.6g} outside the "
+                             f"aerodynamic table [{lo:.6g}, {hi:.6g}]; tabulate a wider k range")
+        return self._spline(np.clip(k, lo, hi))
+
+
+def uvlm_table(
+    mesh: StandardMesh,
+    shapes: np.ndarray,
+    mach: float,
+    k_max: float = 2.0,
+    n_k: int = 41,
+    solver: Any = None,
+    derivative: str = "exact",
+) -> AeroTable:
+    """AeroTable of the linear UVLM for ``shapes`` [N, m] (m) at ``mach`` on k = 0 .. k_max (n_k points).
+
+    The lattice, wake length and lattice time step are those the time-domain ``solver`` (default
+    ``UvlmSolver()``) uses for training: the mesh refined ``solver.refine`` times, dt* = 1 / n_chord of the
+    refined lattice, ``solver.wake_chords``; the system is assembled and factorized once (one K x K complex
+    solve per k). ``derivative`` "exact" (du/dt* = i omega* u) or "bdf2" (the march's sampled derivative).
+    """
+    from romams_core.aero.uvlm import UvlmSolver, build_uvlm, frequency_response, refine_mesh
+
+    if not (math.isfinite(k_max) and k_max > 0):
+        raise ValueError(f"k_max: must be finite and > 0, got {k_max!r}")
+    if not (isinstance(n_k, int | np.integer) and n_k >= 4):
+        raise ValueError(f"n_k: must be an integer >= 4, got {n_k!r}")
+    solver = UvlmSolver() if solver is None else solver
+    r = int(solver.refine)
+    lattice, interp = refine_mesh(mesh, r)
+    lattice_shapes = np.asarray(interp @ np.asarray(shapes, dtype=float))
+    system = build_uvlm(lattice, mach, 1.0 / lattice.n_chord, wake_chords=solver.wake_chords,
+                        tip_inset=solver.tip_inset)
+    k = np.linspace(0.0, float(k_max), int(n_k))
+    h = frequency_response(lattice, lattice_shapes, mach, k, derivative=derivative, system=system)
+    desc = (f"UVLM frequency response, lattice refined {r}x, dt* {system.dt_star:g}, wake {solver.wake_chords:g} "
+            f"chords, derivative {derivative}")
+    return AeroTable(k=k, h=h, mach=float(mach), description=desc)
+
+
+@dataclass
+class PkResult:
+    """p-k flutter point and V-g data at one Mach number (SI units, rad/s).
+
+    ``v`` is the sweep's speed axis (true speed for constant-density / matched, sqrt(2 q / rho_ref) for
+    constant-speed). ``g`` = 2 gamma (positive = unstable), ``omega`` = Im(p) (rad/s), ``k_red`` = omega b / V,
+    per structural branch [nv, k]. Scalars are None when no flutter was found.
+    """
+
+    mach: float
+    sweep: str
+    flutter_found: bool
+    v_flutter_m_s: float | None
+    omega_flutter_rad_s: float | None
+    q_flutter_pa: float | None
+    rho_flutter: float | None
+    k_flutter: float | None
+    v_true_m_s: float | None
+    flutter_mode: int | None  # 1-based structural branch
+    message: str
+    rho_ref: float
+    a_ref: float
+    c_ref: float
+    max_iterations: int  # most k-iterations any root needed
+    v: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    q: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rho: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    g: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    omega: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    k_red: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+
+
+def _positive(name: str, value: Any) -> float:
+    """``value`` as a float, or ValueError naming ``name`` unless finite and > 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be a number, got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name}: must be finite and > 0, got {value!r}")
+    return v
+
+
+def _aero_fn(aero: Any, m: int) -> AeroFn:
+    """Vectorized H(k) [n, m, m] from an AeroTable or a callable of k [n] (checked on one value)."""
+    if not callable(aero):
+        raise ValueError("aero: must be an AeroTable or a callable k[n] -> H[n, m, m]")
+    probe = np.asarray(aero(np.array([0.1 if not isinstance(aero, AeroTable) else aero.k[0]])), dtype=complex)
+    if probe.shape != (1, m, m):
+        raise ValueError(f"aero: H(k) must have shape (n, {m}, {m}) for {m} structural modes, got {probe.shape}")
+    return lambda k: np.asarray(aero(k), dtype=complex)
+
+
+class _Pk:
+    """p-k root iteration of all structural branches at one (V, q) (internal)."""
+
+    def __init__(self, omega: np.ndarray, zeta: np.ndarray, h: AeroFn, b: float, k_tol: float, max_iter: int):
+        self.omega, self.zeta, self.h, self.b = omega, zeta, h, b
+        self.k_tol, self.max_iter = k_tol, max_iter
+        self.n = omega.size
+        self.iterations = 0
+
+    def roots(self, v: float, q: float, p0: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
+        """Converged p [len(branches)] (rad/s) of the given branches at speed v (m/s) and q (Pa), from guesses p0."""
+        n = self.n
+        br = np.arange(n) if branches is None else np.asarray(branches)
+        p = np.asarray(p0, dtype=complex).copy()
+        kk = np.abs(p.imag) * self.b / v
+        stiff = np.diag(self.omega**2)
+        damp = np.diag(2.0 * self.zeta * self.omega)
+        a = np.zeros((br.size, 2 * n, 2 * n), complex)
+        a[:, :n, n:] = np.eye(n)
+        a[:, n:, n:] = -damp
+        for it in range(1, self.max_iter + 1):  # k-iterations (a few dozen at most)
+            a[:, n:, :n] = -stiff + q * self.h(kk)
+            lam = np.linalg.eigvals(a)  # [nb, 2n]
+            cand = np.where(lam.imag >= -1e-9 * np.abs(lam), lam, np.nan)
+            scale = np.maximum(np.abs(p), self.omega[br])[:, None]
+            j = np.nanargmin(np.abs(cand - p[:, None]) / scale, axis=1)
+            p = lam[np.arange(br.size), j]
+            k_new = np.abs(p.imag) * self.b / v
+            done = np.abs(k_new - kk) <= self.k_tol * (1.0 + kk)
+            kk = k_new
+            if np.all(done):
+                self.iterations = max(self.iterations, it)
+                return p
+        raise RuntimeError(f"p-k iteration did not converge in {self.max_iter} iterations at V = {v:.6g} m/s, "
+                           f"q = {q:.6g} Pa (k change {np.max(np.abs(k_new - kk)):.3g})")
+
+
+def pk_flutter(
+    omega: np.ndarray,
+    aero: Any,
+    c_ref: float,
+    mach: float,
+    *,
+    sweep: str = "constant-speed",
+    zeta: np.ndarray | float | None = None,
+    altitude_ref_m: float = DEFAULT_ALTITUDE_REF_M,
+    rho_ref: float | None = None,
+    a_ref: float | None = None,
+    v_max: float | None = None,
+    q_max: float | None = None,
+    altitude_range_m: tuple[float, float] = (0.0, 20_000.0),
+    n_points: int = 40,
+    rtol: float = 1e-4,
+    k_tol: float = 1e-9,
+    max_iter: int = 200,
+    max_jump: float = 0.15,
+) -> PkResult:
+    """p-k flutter search at one Mach for structure ``omega`` [k] (rad/s) and harmonic aerodynamics ``aero``.
+
+    ``aero``: an AeroTable or a callable k [n] -> H [n, k, k] (m^3, f = H xi per unit q); ``c_ref`` (m) sets
+    b = c_ref / 2. Reference state, ranges and sweeps as ``flutter.flutter_analysis`` (rho_ref, a_ref from ISA
+    at ``altitude_ref_m``; v_max default 3 M a_ref; q_max default 4 x 0.5 rho_ref (M a_ref)^2). ``n_points``
+    coarse sweep points; a step where a root moves by more than ``max_jump`` x max(|p|, omega_j) is split
+    (up to 1/64). The first gamma = 0 crossing is refined with brentq to ``rtol`` relative in the sweep
+    parameter. Returns a PkResult (no flutter in range: flutter_found False).
+    """
+    if sweep not in SWEEPS:
+        raise ValueError(f"sweep: must be one of {SWEEPS}, got {sweep!r}")
+    om = np.atleast_1d(np.asarray(omega, dtype=float))
+    if om.ndim != 1 or om.size == 0 or not np.all(np.isfinite(om)) or np.any(om <= 0):
+        raise ValueError("omega: must be a non-empty 1-D array of finite frequencies > 0 (rad/s)")
+    n = om.size
+    zt = np.zeros(n) if zeta is None else np.broadcast_to(np.asarray(zeta, dtype=float), (n,)).copy() \
+        if np.ndim(zeta) == 0 else np.asarray(zeta, dtype=float)
+    if zt.shape != (n,) or not np.all(np.isfinite(zt)) or np.any(zt < 0) or np.any(zt >= 1):
+        raise ValueError(f"zeta: must be a scalar or [{n}] array of damping ratios in [0, 1)")
+    c_ref = _positive("c_ref", c_ref)
+    if not (isinstance(mach, int | float | np.floating) and math.isfinite(mach) and mach >= 0):
+        raise ValueError(f"mach: must be a finite number >= 0, got {mach!r}")
+    mach = float(mach)
+    if sweep != "constant-density" and mach <= 0:
+        raise ValueError(f"mach: must be > 0 for the {sweep} sweep, got {mach!r}")
+    if not (isinstance(n_points, int | np.integer) and 4 <= n_points <= 5000):
+        raise ValueError(f"n_points: must be an integer in [4, 5000], got {n_points!r}")
+    rtol = _positive("rtol", rtol)
+    h = _aero_fn(aero, n)
+    if rho_ref is None or a_ref is None:
+        st = isa(float(altitude_ref_m))
+        rho_ref = float(st.rho) if rho_ref is None else rho_ref
+        a_ref = float(st.a) if a_ref is None else a_ref
+    rho_ref, a_ref = _positive("rho_ref", rho_ref), _positive("a_ref", a_ref)
+
+    # sweep parameter s -> (V, rho); s = s0 is q = 0, where the branches start at the in-vacuo poles
+    if sweep == "constant-density":
+        if v_max is None and mach <= 0:
+            raise ValueError("v_max: required for a constant-density sweep with mach = 0")
+        s_end = _positive("v_max", 3.0 * mach * a_ref if v_max is None else v_max)
+
+        def cond(s: float) -> tuple[float, float]:
+            return s, rho_ref
+
+        s0 = 0.0
+        grid = np.linspace(s_end / n_points, s_end, n_points)
+    elif sweep == "constant-speed":
+        v0 = mach * a_ref
+        s_end = 2.0 * rho_ref * v0**2 if q_max is None else _positive("q_max", q_max)
+
+        def cond(s: float) -> tuple[float, float]:
+            return v0, 2.0 * s / v0**2
+
+        s0 = 0.0
+        grid = np.linspace(s_end / n_points, s_end, n_points)
+    else:
+        h_lo, h_hi = (float(x) for x in altitude_range_m)
+        if not (math.isfinite(h_lo) and math.isfinite(h_hi) and h_lo < h_hi):
+            raise ValueError(f"altitude_range_m: must be (low, high) with low < high, got {altitude_range_m!r}")
+        isa_table(h_lo)
+        rho_top, a_top, _ = isa_table(h_hi)
+
+        def cond(s: float) -> tuple[float, float]:
+            if s < 0:  # density ramp at the top altitude, q from 0 to q(h_top)
+                return mach * float(a_top), float(rho_top) * (1.0 + s)
+            rho_h, a_h, _ = isa_table(h_hi - s)
+            return mach * float(a_h), float(rho_h)
+
+        s0 = -1.0
+        grid = np.concatenate([np.linspace(-0.75, -0.25, 3), np.linspace(0.0, h_hi - h_lo, n_points)])
+
+    b = 0.5 * c_ref
+    pk = _Pk(om, zt, h, b, float(k_tol), int(max_iter))
+    p_vac = om * (-zt + 1j * np.sqrt(1.0 - zt**2))
+
+    def solve(s: float, p_guess: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
+        v, rho = cond(s)
+        return pk.roots(v, 0.5 * rho * v**2, p_guess, branches)
+
+    def step(s_a: float, p_a: np.ndarray, p_prev: np.ndarray | None, s_prev: float | None, s_b: float,
+             depth: int = 0) -> np.ndarray:
+        """Roots at s_b continued from s_a (linear predictor from the point before when known)."""
+        guess = p_a if p_prev is None else p_a + (p_a - p_prev) * (s_b - s_a) / (s_a - s_prev)
+        p_b = solve(s_b, guess)
+        jump = np.abs(p_b - p_a) / np.maximum(np.abs(p_a), om)
+        if np.any(jump > max_jump) and depth < 6:
+            s_m = 0.5 * (s_a + s_b)
+            p_m = step(s_a, p_a, p_prev, s_prev, s_m, depth + 1)
+            return step(s_m, p_m, p_a, s_a, s_b, depth + 1)
+        return p_b
+
+    # q -> 0 limit of the first step: start from the in-vacuo poles, no predictor
+    path = np.empty((grid.size, n), complex)
+    p_a, p_prev, s_a, s_prev = p_vac, None, s0, None
+    for i, s in enumerate(grid):  # the coarse sweep (tens of points)
+        p_b = step(s_a, p_a, p_prev, s_prev, float(s))
+        path[i] = p_b
+        p_prev, s_prev, p_a, s_a = p_a, s_a, p_b, float(s)
+
+    gamma = path.real / np.where(np.abs(path.imag) > 0, np.abs(path.imag), np.inf)
+    g_path = 2.0 * path.real / np.abs(path)  # = 2 gamma / sqrt(1 + gamma^2): sign and zero of 2 gamma
+    g_path = np.where(np.isfinite(gamma), 2.0 * gamma, g_path)
+    vq = [cond(float(s)) for s in grid]
+    v_g = np.array([x[0] for x in vq])
+    rho_g = np.array([x[1] for x in vq])
+    q_g = 0.5 * rho_g * v_g**2
+    keep = grid >= 0.0
+    v_axis = np.sqrt(2.0 * q_g / rho_ref) if sweep == "constant-speed" else v_g
+    common = dict(
+        rho_ref=rho_ref, a_ref=a_ref, c_ref=c_ref, v=v_axis[keep], q=q_g[keep], rho=rho_g[keep],
+        g=g_path[keep], omega=np.abs(path.imag[keep]), k_red=np.abs(path.imag[keep]) * b / v_g[keep, None],
+    )
+    unstable = path.real > 1e-12 * np.abs(path)
+    first = np.where(unstable.any(axis=0), unstable.argmax(axis=0), grid.size)
+    i_cross = int(first.min())
+    none = dict(v_flutter_m_s=None, omega_flutter_rad_s=None, q_flutter_pa=None, rho_flutter=None, k_flutter=None,
+                v_true_m_s=None, flutter_mode=None)
+    if i_cross >= grid.size:
+        return PkResult(mach=mach, sweep=sweep, flutter_found=False, message="no flutter in the sweep range",
+                        max_iterations=pk.iterations, **none, **common)
+    message = ""
+    if i_cross == 0:
+        lo_s, lo_p = s0, p_vac
+    else:
+        lo_s, lo_p = float(grid[i_cross - 1]), path[i_cross - 1]
+    hi_s, hi_p = float(grid[i_cross]), path[i_cross]
+
+    def re_at(s: float, j: int) -> float:
+        """Re(p) of branch j at s, iterated from the linear interpolation of the bracket ends."""
+        if s == lo_s:
+            return float(lo_p[j].real)
+        if s == hi_s:
+            return float(hi_p[j].real)
+        t = (s - lo_s) / (hi_s - lo_s)
+        return float(solve(s, np.array([lo_p[j] + t * (hi_p[j] - lo_p[j])]), np.array([j]))[0].real)
+
+    s_f, branch = math.inf, -1
+    scale = max(abs(hi_s), abs(lo_s), 1e-300)
+    for j in np.nonzero(first == i_cross)[0]:  # branches first unstable in this interval (a few)
+        if lo_p[j].real > 0:
+            sj = lo_s
+        else:
+            sj = brentq(re_at, lo_s, hi_s, args=(int(j),), xtol=1e-3 * rtol * scale, rtol=max(rtol * 1e-2, 1e-14))
+        if sj < s_f:
+            s_f, branch = sj, int(j)
+    if s_f == lo_s and i_cross == 0 and lo_p[branch].real >= 0:
+        message = "structural branch unstable from the start of the sweep; "
+    t = (s_f - lo_s) / (hi_s - lo_s)
+    p_f = complex(solve(s_f, np.array([lo_p[branch] + t * (hi_p[branch] - lo_p[branch])]),
+                        np.array([branch]))[0]) if 0 < t < 1 else complex((lo_p if t <= 0 else hi_p)[branch])
+    v_f, rho_f = cond(s_f)
+    q_f = 0.5 * rho_f * v_f**2
+    omega_f = abs(p_f.imag)
+    if omega_f <= 1e-6 * float(om.max()):
+        message += "zero-frequency crossing (static divergence); "
+    v_report = math.sqrt(2.0 * q_f / rho_ref) if sweep == "constant-speed" else v_f
+    message += (f"p-k flutter on structural branch {branch + 1} at q = {q_f:.6g} Pa, V = {v_f:.6g} m/s, "
+                f"omega = {omega_f:.6g} rad/s ({sweep})")
+    return PkResult(
+        mach=mach, sweep=sweep, flutter_found=True, v_flutter_m_s=v_report, omega_flutter_rad_s=omega_f,
+        q_flutter_pa=q_f, rho_flutter=rho_f, k_flutter=omega_f * b / v_f, v_true_m_s=v_f,
+        flutter_mode=branch + 1, message=message, max_iterations=pk.iterations, **common,
+    )
