@@ -69,7 +69,7 @@ def build_models(samples: int = 25, machs: tuple[float, ...] = MACHS) -> dict[st
     wing = template("cropped-delta")
     mesh = standard_mesh(wing.planform)
     t0 = time.perf_counter()
-    basis = build_basis_for_wing(wing, samples=samples, modes=4, mac_threshold=0.98, max_basis=12, seed=0)
+    basis = build_basis_for_wing(wing, samples=samples, modes=4, mac_threshold=0.9999, max_basis=8, seed=0)
     t_basis = time.perf_counter() - t0
     roms, t_train = {}, []
     for m in machs:

@@ -1,0 +1,118 @@
+"""``romams flutter`` and ``romams demo`` through typer's CliRunner: JSON contracts, store reuse, errors."""
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from romams.cli import app
+from romams.settings import get_settings
+from romams.store import open_store
+
+QUICK = ["--samples", "6", "--mac", "0.98"]
+DESIGN = "x1=0.3,x2=0.4,x3=0.7,x4=0.05,x5=1.0,x6=1.0,x7=0.8"
+
+
+@pytest.fixture()
+def data_dir(tmp_path, monkeypatch):
+    monkeypatch.setenv("ROMAMS_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.delenv("ROMAMS_DATABASE_URL", raising=False)
+    get_settings.cache_clear()
+    yield tmp_path
+    get_settings.cache_clear()
+
+
+def _run(*args):
+    return CliRunner().invoke(app, ["flutter", *args])
+
+
+def test_flutter_json_contract_trains_once_and_reuses_the_store(data_dir):
+    res = _run("--wing", "cropped-delta", "--design", DESIGN, "--mach", "0.87", "--mach", "0.79", "--json",
+               "--plot", str(data_dir / "plots"), *QUICK)
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.stdout)
+    for key in ("mass_kg", "frequencies_hz", "mac", "results"):
+        assert key in out
+    assert "building the PCA basis" in res.stderr and "training 2 ROM(s)" in res.stderr
+    assert [r["mach"] for r in out["results"]] == [0.79, 0.87]
+    assert len(out["frequencies_hz"]) == 4 and len(out["mac"]) == 4
+    assert 0.1 < out["mass_kg"] < 0.4
+    for r in out["results"]:
+        for key in ("mach", "v_flutter_m_s", "omega_flutter_rad_s", "q_flutter_pa", "sdoff", "flutter_mode"):
+            assert key in r
+        assert r["flutter_found"] and r["sweep"] == "constant-density"
+        assert 50.0 < r["v_flutter_m_s"] < 600.0 and r["q_flutter_pa"] > 0
+        # constant density at ISA 10 km: q = 0.5 rho V^2
+        assert r["q_flutter_pa"] == pytest.approx(0.5 * 0.41351 * r["v_flutter_m_s"] ** 2, rel=1e-3)
+    assert len(list((data_dir / "plots").glob("vg_M*.png"))) == 2
+    st = open_store()
+    wing_id = st.find_wing("cropped-delta")[0]
+    assert len(st.list_roms(wing_id)) == 2
+    # second call: the stored basis and ROMs are reused, nothing is trained again
+    again = _run("--wing", "cropped-delta", "--design", DESIGN, "--mach", "0.87", "--json", *QUICK)
+    assert again.exit_code == 0, again.output
+    assert "training" not in again.stderr and "building" not in again.stderr
+    first, second = json.loads(again.stdout)["results"][0], out["results"][1]
+    assert second["flutter_mode"] == first["flutter_mode"]
+    assert second["v_flutter_m_s"] == pytest.approx(first["v_flutter_m_s"], rel=1e-9)
+
+
+def test_flutter_rom_pms_and_matched_point(data_dir):
+    ams = json.loads(_run("--wing", "cropped-delta", "--baseline", "--mach", "0.87", "--matched", "--json",
+                          *QUICK).stdout)
+    pms = json.loads(_run("--wing", "cropped-delta", "--baseline", "--mach", "0.87", "--matched", "--method",
+                          "rom-pms", "--json", *QUICK).stdout)
+    a, p = ams["results"][0], pms["results"][0]
+    assert a["sweep"] == "matched" and a["altitude_m"] is not None
+    assert a["v_true_m_s"] == pytest.approx(0.87 * 299.5, rel=0.03)  # V = M a(h) near 10-16 km
+    # a 6-sample MAC-0.98 basis: ROM-AMS within a few percent of ROM-PMS on the baseline's modes
+    assert a["q_flutter_pa"] == pytest.approx(p["q_flutter_pa"], rel=0.05)
+    assert ams["mass_kg"] == pytest.approx(0.24, rel=0.01)
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--design", DESIGN.replace("x1=0.3", "x1=0.9")], "x1"),
+        (["--design", DESIGN.replace("x7=0.8", "x7=nan")], "x7"),
+        (["--design", "x1=0.3"], "missing"),
+        (["--baseline", "--design", DESIGN], "either --baseline or --design"),
+        (["--baseline", "--mach", "1.3"], "--mach"),
+        (["--baseline", "--matched", "--density", "1.0"], "at most one"),
+        (["--baseline", "--method", "dlm"], "--method"),
+        (["--wing", "no-such-wing", "--baseline"], "no-such-wing"),
+    ],
+)
+def test_flutter_bad_input_is_a_clear_usage_error(data_dir, args, fragment):
+    res = _run(*args, "--json")
+    assert res.exit_code == 2
+    assert fragment in res.output
+    assert "Traceback" not in res.output
+
+
+@pytest.mark.slow
+def test_demo_quick_writes_summary_with_contract_keys(data_dir):
+    out = data_dir / "demo"
+    res = CliRunner().invoke(app, ["demo", "--quick", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    base = s["baseline"]
+    assert [round(f, 0) for f in base["frequencies_hz"][:3]] == [27.0, 88.0, 132.0]
+    assert base["mass_kg"] == pytest.approx(0.24, rel=0.01)
+    assert [e["mach"] for e in base["envelope"]] == [0.79, 0.83, 0.87, 0.91, 0.95]
+    assert s["basis"]["n_basis"] <= 8 and s["basis"]["min_mac"] >= 0.99
+    assert [r["mach"] for r in s["roms"]] == [0.79, 0.83, 0.87, 0.91, 0.95]
+    assert all(max(r["validation_nrmse"]) < 0.01 for r in s["roms"])
+    assert len(s["designs"]) == 2
+    for d in s["designs"]:
+        assert set(d) >= {"design", "mac", "results"} and min(d["mac"]) >= 0.99
+        for r in d["results"]:
+            assert set(r) >= {"mach", "v_flutter_m_s", "omega_flutter_rad_s", "q_flutter_pa", "sdoff",
+                              "v_flutter_pms_m_s", "error_pct"}
+            assert abs(r["error_pct"]) < 1.0  # ROM-AMS vs ROM-PMS
+    # var1 is the dangerous design, var2 the safe one (paper Fig. 14)
+    assert [d["envelope_ok"] for d in s["designs"]] == [False, True]
+    for key in ("pca_basis_s", "training_wall_s", "modal_analysis_ms", "flutter_5_machs_ms",
+                "rom_ams_4530_structures_min", "rom_pms_4530_structures_h"):
+        assert key in s["timings"]
+    assert (out / "envelope.png").stat().st_size > 10_000
