@@ -6,7 +6,12 @@ identified on the design's own modes with the same solver, signals and orders: t
 at every Mach number. Reports the relative flutter-speed and frequency errors, their distribution and
 worst case, split by whether every mode fits with MAC >= 0.99.
 
-    python -m benchmarks.accuracy_rom_ams [--designs 20] [--machs 0.79 0.83 0.87 0.91 0.95] [--json]
+With ``--fom N`` the first N designs also get the full-order reference at every Mach: p-k with the UVLM's
+own frequency response on the design's modes (``romams_core.pk.fom_flutter``), and the ROM-AMS and ROM-PMS
+errors against it are reported (rows: ``v_fom``, ``v_error_ams_fom_pct``, ``v_error_pms_fom_pct``; summary
+``fom``).
+
+    python -m benchmarks.accuracy_rom_ams [--designs 20] [--machs 0.79 0.83 0.87 0.91 0.95] [--fom 3] [--json]
 """
 
 from __future__ import annotations
@@ -23,14 +28,29 @@ from romams_core.basis import build_basis_for_wing, project, random_designs
 from romams_core.evaluate import evaluate_structure
 from romams_core.flutter import flutter_analysis
 from romams_core.mesh import standard_mesh
+from romams_core.pk import fom_flutter
 from romams_core.structure.modal import modal_analysis
 from romams_core.wing import template
 
 
+def _fom_one(args: tuple[Any, np.ndarray, np.ndarray, float, float, str]) -> dict[str, Any]:
+    """Worker-process body: full-order UVLM p-k flutter point of one (design, Mach) (top level so it pickles)."""
+    mesh, omega, shapes, mach, zeta, sweep = args
+    t0 = time.perf_counter()
+    res, _ = fom_flutter(mesh, omega, shapes, mach, zeta=zeta, sweep=sweep)
+    return {"found": res.flutter_found, "v": res.v_flutter_m_s, "omega": res.omega_flutter_rad_s,
+            "mode": res.flutter_mode, "q": res.q_flutter_pa, "seconds": time.perf_counter() - t0}
+
+
+def _pct(a: float | None, ref: float | None) -> float | None:
+    """100 (a / ref - 1), or None when either is missing."""
+    return None if a is None or ref is None else 100.0 * (a / ref - 1.0)
+
+
 def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: int = 25, mac_threshold: float = 0.9999,
         max_basis: int = 8, seed: int = 7, sweep: str = "constant-speed", processes: int | None = None,
-        ident: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Run the comparison; returns a JSON-able dict with per-design rows and statistics."""
+        ident: dict[str, Any] | None = None, fom: int = 0) -> dict[str, Any]:
+    """Run the comparison (full-order p-k reference for the first ``fom`` designs); returns a JSON-able dict."""
     t0 = time.perf_counter()
     wing = template("cropped-delta")
     mesh = standard_mesh(wing.planform)
@@ -44,6 +64,9 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
     from romams.pipeline import _train_one, parallel_map
 
     pms_roms = parallel_map(_train_one, [(a, b, c, dict(ident)) for a, b, c in jobs], processes)
+    n_fom = min(max(int(fom), 0), n_designs)
+    fom_jobs = [(mesh, m.omega, m.shapes, mach, wing.modal_damping, sweep) for m in modals[:n_fom] for mach in machs]
+    foms = parallel_map(_fom_one, fom_jobs, processes) if fom_jobs else []
     rows = []
     for i, modal in enumerate(modals):
         ev = evaluate_structure(modal, basis.shapes, roms, sweep=sweep, zeta=wing.modal_damping)
@@ -61,6 +84,16 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
                 "v_error_pct": 100.0 * (ams.v_flutter_m_s / pms.v_flutter_m_s - 1.0) if both else None,
                 "omega_error_pct": 100.0 * (ams.omega_flutter_rad_s / pms.omega_flutter_rad_s - 1.0) if both else None,
             })
+            if i < n_fom:
+                f = foms[i * len(machs) + j]
+                rows[-1].update({
+                    "v_fom": f["v"], "omega_fom": f["omega"], "mode_fom": f["mode"], "found_fom": f["found"],
+                    "fom_seconds": f["seconds"],
+                    "v_error_ams_fom_pct": _pct(ams.v_flutter_m_s, f["v"]),
+                    "v_error_pms_fom_pct": _pct(pms.v_flutter_m_s, f["v"]),
+                    "omega_error_ams_fom_pct": _pct(ams.omega_flutter_rad_s, f["omega"]),
+                    "omega_error_pms_fom_pct": _pct(pms.omega_flutter_rad_s, f["omega"]),
+                })
 
     def stats(sel: list[dict[str, Any]]) -> dict[str, Any]:
         e = np.array([abs(r["v_error_pct"]) for r in sel if r["v_error_pct"] is not None])
@@ -73,12 +106,27 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
                                     "median": float(np.median(e)), "mean": float(e.mean())},
                 "omega_abs_error_pct_max": float(w.max()), "within_1pct": float(np.mean(e <= 1.0))}
 
+    def fom_stats(sel: list[dict[str, Any]]) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "n": len(sel),
+            "found_mismatch_ams": int(sum(r["found_ams"] != r["found_fom"] for r in sel)),
+            "found_mismatch_pms": int(sum(r["found_pms"] != r["found_fom"] for r in sel)),
+        }
+        for key in ("v_error_ams_fom_pct", "v_error_pms_fom_pct", "omega_error_ams_fom_pct", "omega_error_pms_fom_pct"):
+            e = np.array([abs(r[key]) for r in sel if r[key] is not None])
+            if e.size:
+                out[key.replace("_pct", "_abs_pct")] = {"max": float(e.max()), "median": float(np.median(e))}
+        if sel:
+            out["seconds_per_mach_median"] = float(np.median([r["fom_seconds"] for r in sel]))
+        return out
+
     good = [r for r in rows if r["min_mac"] >= 0.99]
     worst = max((r for r in rows if r["v_error_pct"] is not None), key=lambda r: abs(r["v_error_pct"]), default=None)
     return {
         "designs": n_designs, "machs": list(machs), "sweep": sweep, "n_basis": int(basis.n_basis),
         "basis_min_mac": float(basis.min_mac), "solver": ident["solver"],
         "all": stats(rows), "mac_ge_0_99": stats(good), "worst": worst, "rows": rows,
+        "fom": fom_stats([r for r in rows if "v_fom" in r]) if n_fom else None,
         "wall_s": time.perf_counter() - t0,
     }
 
@@ -89,9 +137,11 @@ def main() -> None:
     ap.add_argument("--designs", type=int, default=20)
     ap.add_argument("--machs", type=float, nargs="+", default=list(PAPER_MACHS))
     ap.add_argument("--sweep", default="constant-speed")
+    ap.add_argument("--fom", type=int, default=0, metavar="N",
+                    help="full-order UVLM p-k reference for the first N designs at every Mach")
     ap.add_argument("--json", action="store_true", help="print the full JSON (default: summary only)")
     a = ap.parse_args()
-    res = run(a.designs, tuple(a.machs), sweep=a.sweep)
+    res = run(a.designs, tuple(a.machs), sweep=a.sweep, fom=a.fom)
     if not a.json:
         res = {k: v for k, v in res.items() if k != "rows"}
     print(json.dumps(res, indent=None if a.json else 2))

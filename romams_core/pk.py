@@ -14,10 +14,12 @@ updated from the chosen root (the one nearest the branch's previous estimate, wi
 |k_new - k_old| <= k_tol (1 + k) (direct substitution; ``k_tol`` default 1e-9). Each iteration solves the
 eigenproblems of all branches as one batched ``numpy.linalg.eigvals``.
 
-Damping convention: p = omega (gamma + i), gamma = Re(p) / Im(p); Nastran's g = 2 gamma, positive = unstable
-(the same sign as ``flutter.FlutterResult.g``, which is 2 Re(s)/|s|, equal to 2 gamma at gamma = 0). At the
-flutter point gamma = 0, the motion is harmonic and p-k is exact (k-method and p-k coincide there); away
-from it gamma is the usual p-k approximation of the damping.
+Damping convention: p = omega (gamma + i), gamma = Re(p) / Im(p) (Nastran's p-k damping is g = 2 gamma),
+positive = unstable. Results hold ``gamma`` (inf for a real, non-oscillatory root) and, for plots next to
+the time-domain results, ``g`` = 2 Re(p) / |p| = 2 gamma / sqrt(1 + gamma^2), the very definition of
+``flutter.FlutterResult.g`` (both vanish together and agree to O(gamma^3)). At the flutter point gamma = 0,
+the motion is harmonic and p-k is exact (k-method and p-k coincide there); away from it gamma is the usual
+p-k approximation of the damping.
 
 Sweeps as in ``romams_core.flutter``: "constant-density" (V swept at rho_ref), "constant-speed"
 (V = M a_ref, density swept, i.e. q; reported v = sqrt(2 q_f / rho_ref)) and "matched" (altitude swept with
@@ -117,8 +119,9 @@ class PkResult:
     """p-k flutter point and V-g data at one Mach number (SI units, rad/s).
 
     ``v`` is the sweep's speed axis (true speed for constant-density / matched, sqrt(2 q / rho_ref) for
-    constant-speed). ``g`` = 2 gamma (positive = unstable), ``omega`` = Im(p) (rad/s), ``k_red`` = omega b / V,
-    per structural branch [nv, k]. Scalars are None when no flutter was found.
+    constant-speed). Per structural branch [nv, k]: ``gamma`` = Re(p) / Im(p) (positive = unstable, inf for
+    a real root), ``g`` = 2 Re(p) / |p| (as flutter.FlutterResult.g), ``omega`` = Im(p) (rad/s), ``k_red`` =
+    omega b / V. Scalars are None when no flutter was found.
     """
 
     mach: float
@@ -140,6 +143,7 @@ class PkResult:
     q: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rho: np.ndarray = field(default_factory=lambda: np.zeros(0))
     g: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    gamma: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     omega: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     k_red: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
@@ -174,32 +178,63 @@ class _Pk:
         self.n = omega.size
         self.iterations = 0
 
-    def roots(self, v: float, q: float, p0: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
-        """Converged p [len(branches)] (rad/s) of the given branches at speed v (m/s) and q (Pa), from guesses p0."""
+    def _eig_pick(self, v: float, q: float, kk: np.ndarray, p: np.ndarray, br: np.ndarray) -> np.ndarray:
+        """Roots at reduced frequencies kk [nb] nearest the estimates p [nb] (Im p >= 0), one batched eigvals."""
         n = self.n
-        br = np.arange(n) if branches is None else np.asarray(branches)
-        p = np.asarray(p0, dtype=complex).copy()
-        kk = np.abs(p.imag) * self.b / v
-        stiff = np.diag(self.omega**2)
-        damp = np.diag(2.0 * self.zeta * self.omega)
         a = np.zeros((br.size, 2 * n, 2 * n), complex)
         a[:, :n, n:] = np.eye(n)
-        a[:, n:, n:] = -damp
-        for it in range(1, self.max_iter + 1):  # k-iterations (a few dozen at most)
-            a[:, n:, :n] = -stiff + q * self.h(kk)
-            lam = np.linalg.eigvals(a)  # [nb, 2n]
-            cand = np.where(lam.imag >= -1e-9 * np.abs(lam), lam, np.nan)
-            scale = np.maximum(np.abs(p), self.omega[br])[:, None]
-            j = np.nanargmin(np.abs(cand - p[:, None]) / scale, axis=1)
-            p = lam[np.arange(br.size), j]
-            k_new = np.abs(p.imag) * self.b / v
-            done = np.abs(k_new - kk) <= self.k_tol * (1.0 + kk)
-            kk = k_new
-            if np.all(done):
+        a[:, n:, n:] = -np.diag(2.0 * self.zeta * self.omega)
+        a[:, n:, :n] = -np.diag(self.omega**2) + q * self.h(kk)
+        lam = np.linalg.eigvals(a)  # [nb, 2n]
+        cand = np.where(lam.imag >= -1e-9 * np.abs(lam), lam, np.nan)
+        scale = np.maximum(np.abs(p), self.omega[br])[:, None]
+        j = np.nanargmin(np.abs(cand - p[:, None]) / scale, axis=1)
+        return lam[np.arange(br.size), j]
+
+    def roots(self, v: float, q: float, p0: np.ndarray, branches: np.ndarray | None = None) -> np.ndarray:
+        """Converged p [len(branches)] (rad/s) of the given branches at speed v (m/s) and q (Pa), from guesses p0.
+
+        Direct substitution k <- Im(p) b / V; a branch still unconverged after 30 iterations is checked at
+        k = 0 (a real root there is a converged non-oscillatory root: the substitution creeps towards k = 0
+        only linearly) and then solved as the scalar fixed point by brentq on Im(p(k)) b / V - k.
+        """
+        br = np.arange(self.n) if branches is None else np.asarray(branches)
+        p = np.asarray(p0, dtype=complex).copy()
+        kk = np.abs(p.imag) * self.b / v
+        done = np.zeros(br.size, bool)
+        for it in range(1, 31):  # direct substitution (converges in ~10-20 iterations when it does)
+            idx = np.nonzero(~done)[0]
+            p_new = self._eig_pick(v, q, kk[idx], p[idx], br[idx])
+            k_new = np.abs(p_new.imag) * self.b / v
+            conv = np.abs(k_new - kk[idx]) <= self.k_tol * (1.0 + kk[idx])
+            p[idx], kk[idx] = p_new, k_new
+            done[idx] = conv
+            if done.all():
                 self.iterations = max(self.iterations, it)
                 return p
-        raise RuntimeError(f"p-k iteration did not converge in {self.max_iter} iterations at V = {v:.6g} m/s, "
-                           f"q = {q:.6g} Pa (k change {np.max(np.abs(k_new - kk)):.3g})")
+        self.iterations = max(self.iterations, 30)
+        for i in np.nonzero(~done)[0]:  # the few stubborn branches, one scalar problem each
+            pb = br[i : i + 1]
+            p_zero = self._eig_pick(v, q, np.zeros(1), p[i : i + 1], pb)[0]
+            if abs(p_zero.imag) <= 1e-9 * max(abs(p_zero), 1.0):
+                p[i] = p_zero.real
+                continue
+
+            def resid(k: float, i: int = i, pb: np.ndarray = pb) -> float:
+                pk_ = self._eig_pick(v, q, np.array([k]), p[i : i + 1], pb)[0]
+                return abs(pk_.imag) * self.b / v - k
+
+            hi = max(2.0 * kk[i], 1e-3)
+            for _ in range(self.max_iter):  # bracket by doubling
+                if resid(hi) < 0:
+                    break
+                hi *= 2.0
+            else:
+                raise RuntimeError(f"p-k iteration did not converge at V = {v:.6g} m/s, q = {q:.6g} Pa "
+                                   f"(branch {int(br[i]) + 1}, k = {kk[i]:.6g})")
+            k_root = brentq(resid, 0.0, hi, xtol=self.k_tol)
+            p[i] = self._eig_pick(v, q, np.array([k_root]), p[i : i + 1], pb)[0]
+        return p
 
 
 def pk_flutter(
@@ -321,9 +356,10 @@ def pk_flutter(
         path[i] = p_b
         p_prev, s_prev, p_a, s_a = p_a, s_a, p_b, float(s)
 
-    gamma = path.real / np.where(np.abs(path.imag) > 0, np.abs(path.imag), np.inf)
-    g_path = 2.0 * path.real / np.abs(path)  # = 2 gamma / sqrt(1 + gamma^2): sign and zero of 2 gamma
-    g_path = np.where(np.isfinite(gamma), 2.0 * gamma, g_path)
+    real_root = np.abs(path.imag) <= 1e-9 * np.abs(path)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gamma = np.where(real_root, np.sign(path.real) * np.inf, path.real / np.abs(path.imag))
+    g_path = 2.0 * path.real / np.abs(path)
     vq = [cond(float(s)) for s in grid]
     v_g = np.array([x[0] for x in vq])
     rho_g = np.array([x[1] for x in vq])
@@ -332,7 +368,8 @@ def pk_flutter(
     v_axis = np.sqrt(2.0 * q_g / rho_ref) if sweep == "constant-speed" else v_g
     common = dict(
         rho_ref=rho_ref, a_ref=a_ref, c_ref=c_ref, v=v_axis[keep], q=q_g[keep], rho=rho_g[keep],
-        g=g_path[keep], omega=np.abs(path.imag[keep]), k_red=np.abs(path.imag[keep]) * b / v_g[keep, None],
+        g=g_path[keep], gamma=gamma[keep], omega=np.abs(path.imag[keep]),
+        k_red=np.abs(path.imag[keep]) * b / v_g[keep, None],
     )
     unstable = path.real > 1e-12 * np.abs(path)
     first = np.where(unstable.any(axis=0), unstable.argmax(axis=0), grid.size)
@@ -385,3 +422,44 @@ def pk_flutter(
         q_flutter_pa=q_f, rho_flutter=rho_f, k_flutter=omega_f * b / v_f, v_true_m_s=v_f,
         flutter_mode=branch + 1, message=message, max_iterations=pk.iterations, **common,
     )
+
+
+def fom_flutter(
+    mesh: StandardMesh,
+    omega: np.ndarray,
+    shapes: np.ndarray,
+    mach: float,
+    *,
+    zeta: np.ndarray | float | None = None,
+    sweep: str = "constant-speed",
+    solver: Any = None,
+    dk: float = 0.05,
+    derivative: str = "exact",
+    **kwargs: Any,
+) -> tuple[PkResult, AeroTable]:
+    """Full-order p-k flutter of structure (omega [k] rad/s, mass-normalized shapes [N, k] m) with the UVLM.
+
+    The UVLM frequency response is tabulated once on k = 0 .. k_max in steps of about ``dk``, with k_max
+    = 1.3 max(omega) b / V_min + 0.1 (V_min the lowest true speed of the sweep), then ``pk_flutter`` runs
+    with ``kwargs`` (rho_ref, a_ref, q_max, v_max, n_points, ...). Returns (PkResult, AeroTable).
+    """
+    om = np.atleast_1d(np.asarray(omega, dtype=float))
+    dk = _positive("dk", dk)
+    mach_f = float(mach)
+    if not (math.isfinite(mach_f) and mach_f > 0):
+        raise ValueError(f"mach: must be finite and > 0, got {mach!r}")
+    st = isa(float(kwargs.get("altitude_ref_m", DEFAULT_ALTITUDE_REF_M)))
+    a_ref = float(kwargs.get("a_ref") or st.a)
+    n_points = int(kwargs.get("n_points", 40))
+    if sweep == "constant-density":
+        v_max = kwargs.get("v_max") or 3.0 * mach_f * a_ref
+        v_min = float(v_max) / n_points / 2.0 ** 6  # sub-stepping may halve the first step six times
+    elif sweep == "matched":
+        h_hi = max(float(x) for x in kwargs.get("altitude_range_m", (0.0, 20_000.0)))
+        v_min = mach_f * float(isa_table(h_hi)[1])
+    else:
+        v_min = mach_f * a_ref
+    k_max = 1.3 * float(np.max(om)) * 0.5 * mesh.c_ref / v_min + 0.1
+    n_k = max(4, int(math.ceil(k_max / dk)) + 1)
+    table = uvlm_table(mesh, shapes, mach_f, k_max=k_max, n_k=n_k, solver=solver, derivative=derivative)
+    return pk_flutter(om, table, mesh.c_ref, mach_f, sweep=sweep, zeta=zeta, **kwargs), table

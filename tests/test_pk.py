@@ -66,10 +66,11 @@ def test_pk_reproduces_theodorsen_k_method_flutter_speed():
     assert r.omega_flutter_rad_s / HP.omega_alpha == pytest.approx(WF_K_METHOD, rel=2e-3)
     # k at flutter is consistent with omega and V on b = c_ref / 2
     assert r.k_flutter == pytest.approx(r.omega_flutter_rad_s * HP.semichord_m / r.v_flutter_m_s, rel=1e-12)
-    # g (= 2 gamma) of the flutter branch is negative below and positive above V_F
+    # gamma and g of the flutter branch are negative below and positive above V_F; g = 2 gamma / sqrt(1 + gamma^2)
     j = r.flutter_mode - 1
-    assert np.all(r.g[r.v < 0.99 * r.v_flutter_m_s, j] < 0)
-    assert np.all(r.g[r.v > 1.01 * r.v_flutter_m_s, j] > 0)
+    assert np.all(r.gamma[r.v < 0.99 * r.v_flutter_m_s, j] < 0)
+    assert np.all(r.gamma[r.v > 1.01 * r.v_flutter_m_s, j] > 0)
+    np.testing.assert_allclose(r.g, 2 * r.gamma / np.sqrt(1 + r.gamma**2), rtol=1e-12, atol=1e-14)
 
 
 def test_pk_with_tabulated_aerodynamics_matches_the_callable():
