@@ -90,7 +90,11 @@ class FlutterRequest(_Strict):
     modes: ModesIn | None = None
     modes_id: int | None = None
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
-    method: Literal["rom-ams"] = "rom-ams"
+    method: Literal["rom-ams", "rom-pms"] = Field(
+        default="rom-ams",
+        description="rom-ams: the trained basis ROMs (fast, synchronous). rom-pms: the reference -- an ARX model "
+        "identified on this structure's own modes at every Mach with the trained ROMs' solver settings; "
+        "a training-queue job (202 with job_id).")
     basis_id: int | None = None
     store: bool = Field(default=True, description="store the evaluation (V-g data, plots)")
 

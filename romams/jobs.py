@@ -32,6 +32,7 @@ TASK_FOR_KIND = {
     "training": "romams.training.rom",
     "flutter": "romams.evaluation.flutter",
     "flutter-chunk": "romams.evaluation.flutter_chunk",
+    "flutter-pms": "romams.training.flutter_pms",
 }
 FINALIZE_FOR_KIND = {"basis": "romams.training.basis_finalize", "flutter-batch": "romams.evaluation.batch_finalize"}
 

@@ -147,6 +147,51 @@ def flutter_job(job_id: str) -> None:
     _run(job_id, body)
 
 
+def evaluate_pms(wing_id: int, basis_id: int, rom_ids: list[list[float]], design: list[float] | None,
+                 modes_id: int | None, progress: ProgressFn) -> tuple[dict[str, Any], Any]:
+    """ROM-PMS reference: train on the structure's own modes at each Mach with the stored ROMs' settings."""
+    from romams_core.evaluate import evaluate_structure
+    from romams_core.training import TrainingError, train_rom
+    from worker.tasks import make_solver
+
+    basis = load_basis(basis_id)
+    modal = structure_modal(wing_id, design, modes_id, int(basis.n_modes))
+    rows = {int(r["id"]): r for r in store().list_roms(wing_id, basis_id)}
+    own: dict[float, Any] = {}
+    for i, (mach, rid) in enumerate(rom_ids):
+        ident = rows[int(rid)]["params"]
+        progress(i / len(rom_ids), f"ROM-PMS: training M = {mach:g} on the structure's own modes")
+        try:
+            own[float(mach)] = train_rom(load_mesh(wing_id), modal.shapes, float(mach), make_solver(ident["solver"]),
+                                         na=int(ident["na"]), nb=int(ident["nb"]), **dict(ident.get("options") or {}))
+        except TrainingError as exc:
+            raise JobFailed(f"ROM-PMS training at M = {mach:g} failed: {exc}") from exc
+    base = baseline_evaluation(wing_id, basis_id, rom_ids)
+    # the structure's own modes are the "basis": gamma = I, MAC = 1
+    result = evaluate_structure(modal, modal.shapes, own, benchmark=None if base is None else base.envelope,
+                                zeta=_zeta(load_wing(wing_id)))
+    summary = summarize(result, external=modes_id is not None)
+    summary["method"] = "rom-pms"
+    return summary, result
+
+
+@app.task(name="romams.training.flutter_pms", acks_late=True, time_limit=_settings.training_time_limit_s)
+def flutter_pms_job(job_id: str) -> None:
+    """One structure by ROM-PMS (the accuracy reference): train on its own modes, evaluate, store."""
+
+    def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
+        p = job["params"]
+        summary, result = evaluate_pms(job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"),
+                                       p.get("modes_id"), progress)
+        if p.get("store", True):
+            summary["evaluation_id"] = store().save_evaluation(
+                job["wing_id"], result, summary=summary, request=p.get("request") or {}, basis_id=p["basis_id"],
+                method="rom-pms")
+        return summary
+
+    _run(job_id, body)
+
+
 @app.task(name="romams.evaluation.flutter_chunk", acks_late=True, time_limit=_settings.evaluation_time_limit_s)
 def flutter_chunk(job_id: str) -> None:
     """A chunk of a batch: summaries of each design (cached by content hash); the last chunk assembles the batch."""
@@ -204,4 +249,5 @@ def batch_finalize(job_id: str) -> None:
         assemble_batch(job_id)
 
 
-__all__ = ["JobFailed", "assemble_batch", "evaluate", "flutter_chunk", "flutter_job", "summarize"]
+__all__ = ["JobFailed", "assemble_batch", "evaluate", "evaluate_pms", "flutter_chunk", "flutter_job",
+           "flutter_pms_job", "summarize"]

@@ -114,13 +114,18 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
     else:
         design = _design_vector(w, body.design, "design")
     request = body.model_dump(exclude={"modes"})
-    h = content_hash("flutter", wid, bid, rom_ids, design) if modes_id is None else None
+    h = content_hash("flutter", wid, bid, rom_ids, design) if modes_id is None and body.method == "rom-ams" else None
     if h is not None and body.store:
         cached = svc.store.find_evaluation(h)
         if cached is not None:
             return {**cached["summary"], "evaluation_id": cached["id"], "cached": True}
     params = {"basis_id": bid, "rom_ids": rom_ids, "design": design, "modes_id": modes_id, "store": body.store,
               "request": request, "method": body.method, "content_hash": h}
+    if body.method == "rom-pms":  # trains one ROM per Mach on the structure's own modes: a training job
+        job_id = jobs.submit(svc.store, svc.celery, "flutter-pms", params, wing_id=wid)
+        response.status_code = 202
+        response.headers["Location"] = f"/api/v1/jobs/{job_id}"
+        return {"job_id": job_id, "status": "queued"}
     job_id = jobs.submit(svc.store, svc.celery, "flutter", params, wing_id=wid)
     job = _wait(svc, job_id, svc.settings.sync_timeout_s)
     if job is None:

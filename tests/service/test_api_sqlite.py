@@ -131,6 +131,27 @@ def test_single_flutter_evaluation_matches_the_core(svc):
     assert one["results"][0]["v_flutter_m_s"] == pytest.approx(out["results"][1]["v_flutter_m_s"], rel=1e-6)
 
 
+def test_rom_pms_reference_through_the_api(svc):
+    """method rom-pms trains on the design's own modes (a training job) and lands near ROM-AMS."""
+    ams = svc.client.post(f"/api/v1/wings/{svc.wing_id}/flutter", json={"design": DESIGN}).json()
+    r = svc.client.post(f"/api/v1/wings/{svc.wing_id}/flutter", json={"design": DESIGN, "method": "rom-pms"})
+    assert r.status_code == 202, r.text
+    job = wait_job(svc.client, r.json()["job_id"])
+    assert job["status"] == "succeeded", (job, svc.worker.log_tail())
+    assert job["kind"] == "flutter-pms"
+    pms = job["result"]
+    assert pms["method"] == "rom-pms" and min(pms["mac"]) > 0.999999  # own modes: exact fit
+    assert pms["mass_kg"] == pytest.approx(ams["mass_kg"], rel=1e-12)
+    for a, p in zip(ams["results"], pms["results"], strict=True):
+        assert a["mach"] == p["mach"]
+        # this fixture's basis is small (6 samples x 3 modes, MAC 0.98): ROM-AMS within a few percent
+        assert a["v_flutter_m_s"] == pytest.approx(p["v_flutter_m_s"], rel=0.05)
+    ev = svc.client.get(f"/api/v1/evaluations/{pms['evaluation_id']}")
+    assert ev.status_code == 200 and ev.json()["method"] == "rom-pms"
+    bad = svc.client.post(f"/api/v1/wings/{svc.wing_id}/flutter/batch", json={"designs": [DESIGN], "method": "rom-pms"})
+    assert bad.status_code == 422 and "method" in bad.text
+
+
 def test_baseline_evaluation_and_envelope_plots(svc):
     r = svc.client.post(f"/api/v1/wings/{svc.wing_id}/flutter", json={})
     assert r.status_code == 200, r.text
