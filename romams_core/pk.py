@@ -339,7 +339,8 @@ def pk_flutter(
     def step(s_a: float, p_a: np.ndarray, p_prev: np.ndarray | None, s_prev: float | None, s_b: float,
              depth: int = 0) -> np.ndarray:
         """Roots at s_b continued from s_a (linear predictor from the point before when known)."""
-        guess = p_a if p_prev is None else p_a + (p_a - p_prev) * (s_b - s_a) / (s_a - s_prev)
+        ratio = 0.0 if p_prev is None else (s_b - s_a) / (s_a - s_prev)
+        guess = p_a + (p_a - p_prev) * ratio if 0.0 < ratio <= 2.0 else p_a  # no long-range extrapolation
         p_b = solve(s_b, guess)
         jump = np.abs(p_b - p_a) / np.maximum(np.abs(p_a), om)
         if np.any(jump > max_jump) and depth < 6:
@@ -440,8 +441,9 @@ def fom_flutter(
     """Full-order p-k flutter of structure (omega [k] rad/s, mass-normalized shapes [N, k] m) with the UVLM.
 
     The UVLM frequency response is tabulated once on k = 0 .. k_max in steps of about ``dk``, with k_max
-    = 1.3 max(omega) b / V_min + 0.1 (V_min the lowest true speed of the sweep), then ``pk_flutter`` runs
-    with ``kwargs`` (rho_ref, a_ref, q_max, v_max, n_points, ...). Returns (PkResult, AeroTable).
+    = 1.3 max(omega) b / V_min + 0.1 (V_min the lowest true speed of the sweep: "constant-speed" or "matched"
+    only), then ``pk_flutter`` runs with ``kwargs`` (rho_ref, a_ref, q_max, n_points, ...). Returns
+    (PkResult, AeroTable). A root outside the table doubles k_max (twice at most).
     """
     om = np.atleast_1d(np.asarray(omega, dtype=float))
     dk = _positive("dk", dk)
@@ -450,16 +452,22 @@ def fom_flutter(
         raise ValueError(f"mach: must be finite and > 0, got {mach!r}")
     st = isa(float(kwargs.get("altitude_ref_m", DEFAULT_ALTITUDE_REF_M)))
     a_ref = float(kwargs.get("a_ref") or st.a)
-    n_points = int(kwargs.get("n_points", 40))
-    if sweep == "constant-density":
-        v_max = kwargs.get("v_max") or 3.0 * mach_f * a_ref
-        v_min = float(v_max) / n_points / 2.0 ** 6  # sub-stepping may halve the first step six times
-    elif sweep == "matched":
+    if sweep == "matched":
         h_hi = max(float(x) for x in kwargs.get("altitude_range_m", (0.0, 20_000.0)))
         v_min = mach_f * float(isa_table(h_hi)[1])
-    else:
+    elif sweep == "constant-speed":
         v_min = mach_f * a_ref
+    else:
+        raise ValueError(f"sweep: fom_flutter supports 'constant-speed' and 'matched' (a constant-density sweep "
+                         f"starts at V -> 0, i.e. k -> infinity, beyond any table), got {sweep!r}")
     k_max = 1.3 * float(np.max(om)) * 0.5 * mesh.c_ref / v_min + 0.1
-    n_k = max(4, int(math.ceil(k_max / dk)) + 1)
-    table = uvlm_table(mesh, shapes, mach_f, k_max=k_max, n_k=n_k, solver=solver, derivative=derivative)
-    return pk_flutter(om, table, mesh.c_ref, mach_f, sweep=sweep, zeta=zeta, **kwargs), table
+    for attempt in range(3):  # a root beyond the table (aerodynamic stiffening) doubles the k range, twice at most
+        n_k = max(4, int(math.ceil(k_max / dk)) + 1)
+        table = uvlm_table(mesh, shapes, mach_f, k_max=k_max, n_k=n_k, solver=solver, derivative=derivative)
+        try:
+            return pk_flutter(om, table, mesh.c_ref, mach_f, sweep=sweep, zeta=zeta, **kwargs), table
+        except ValueError as exc:
+            if not str(exc).startswith("k: reduced frequency") or attempt == 2:
+                raise
+            k_max *= 2.0
+    raise AssertionError("unreachable")
