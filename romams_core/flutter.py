@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 from scipy.optimize import brentq, linear_sum_assignment
 
 from romams_core.atmosphere import altitude_for_dynamic_pressure, isa, isa_table
@@ -46,6 +47,7 @@ from romams_core.atmosphere import altitude_for_dynamic_pressure, isa, isa_table
 SWEEPS = ("constant-density", "constant-speed", "matched")
 COUPLINGS = ("tustin", "zoh")
 DEFAULT_ALTITUDE_REF_M = 10_000.0
+_zgesv = scipy.linalg.lapack.zgesv
 
 
 @dataclass
@@ -125,11 +127,75 @@ def _aero_matrices(aero: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarra
     for n, m in (("A", a), ("B", b), ("C", c), ("D", d)):
         if not np.all(np.isfinite(m)):
             raise ValueError(f"aero.{n}: contains non-finite values")
-    if na:
-        rad = float(np.max(np.abs(np.linalg.eigvals(a))))
-        if rad >= 1.0:
-            raise ValueError(f"aero.A: unstable aerodynamic model (spectral radius {rad:.6f} >= 1)")
     return a, b, c, d, dt_star
+
+
+@dataclass(frozen=True)
+class _AeroPrep:
+    """Structure-independent data of one aero state matrix A (internal, cached per A).
+
+    The ROMs of a wing are trained once in basis coordinates; per structure only B, C, D change
+    (to_modal), so the spectral-radius check, the Tustin factorization and the eigen-decomposition of the
+    continuous aero matrix are computed once per ROM.
+    """
+
+    radius: float  # spectral radius of A
+    lu: Any  # LU factors of I + A (Tustin), None for zoh or na = 0
+    abar: np.ndarray | None  # continuous aero matrix in t* (Tustin)
+    lam: np.ndarray | None  # eigenvalues of abar [na] (None: not reliably diagonalizable)
+    w: np.ndarray | None  # eigenvectors of abar [na, na]
+    wi: np.ndarray | None  # inverse of w
+
+
+_PREP_CACHE: dict[tuple[Any, ...], _AeroPrep] = {}
+_PREP_CACHE_SIZE = 64
+_DIAG_COND_MAX = 1e8  # eigenvector condition number above which the fast (diagonalized) path is not used
+
+
+def _aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> _AeroPrep:
+    """Cached structure-independent data of aero matrix ``a`` (validated: stable, Tustin-convertible)."""
+    key = (coupling, float(dt_star), a.shape, a.tobytes())
+    prep = _PREP_CACHE.get(key)
+    if prep is not None:
+        return prep
+    na = a.shape[0]
+    rad = float(np.max(np.abs(np.linalg.eigvals(a)))) if na else 0.0
+    if rad >= 1.0:
+        raise ValueError(f"aero.A: unstable aerodynamic model (spectral radius {rad:.6f} >= 1)")
+    lu = abar = lam = w = wi = None
+    if coupling == "tustin":
+        if na:
+            eye = np.eye(na)
+            lu = scipy.linalg.lu_factor(eye + a)
+            if np.min(np.abs(np.diag(lu[0]))) < 1e-12:
+                raise ValueError("aero.A: has a pole at z = -1; the Tustin coupling cannot convert it")
+            abar = (2.0 / dt_star) * (a - eye) @ scipy.linalg.lu_solve(lu, eye)
+            lam, w = np.linalg.eig(abar)
+            if np.all(np.isfinite(w)) and np.linalg.cond(w) < _DIAG_COND_MAX:
+                lam, wi = lam.astype(complex), np.linalg.inv(w).astype(complex)
+                w = w.astype(complex)
+            else:
+                lam = w = None
+        else:
+            abar, lam = np.zeros((0, 0)), np.zeros(0, complex)
+            w, wi = np.zeros((0, 0), complex), np.zeros((0, 0), complex)
+    prep = _AeroPrep(rad, lu, abar, lam, w, wi)
+    if len(_PREP_CACHE) >= _PREP_CACHE_SIZE:
+        _PREP_CACHE.pop(next(iter(_PREP_CACHE)))
+    _PREP_CACHE[key] = prep
+    return prep
+
+
+def _tustin_from_prep(
+    prep: _AeroPrep, a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, dt_star: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """tustin_to_continuous with the cached factorization of I + A (same operations, same result)."""
+    if a.shape[0] == 0:
+        return a.copy(), b.copy(), c.copy(), d.copy()
+    pb = scipy.linalg.lu_solve(prep.lu, b)
+    cp = scipy.linalg.lu_solve(prep.lu, c.T, trans=1).T
+    s = math.sqrt(2.0 * (2.0 / dt_star))
+    return prep.abar.copy(), s * pb, s * cp, d - c @ pb
 
 
 def tustin_to_continuous(
@@ -174,10 +240,111 @@ class _Model:
     b: np.ndarray
     c: np.ndarray
     d: np.ndarray
+    # diagonalized aero part (Tustin only; None: use the full eigenvectors): a = W diag(lam_a) W^-1 and the
+    # pole residues res[i] = (c W)[:, i] (W^-1 b)[i, :] flattened [na, k*k], so
+    # c (sI - a)^-1 b = sum_i res[i] / (s - lam_a[i])
+    lam_a: np.ndarray | None = None
+    res: np.ndarray | None = None
+    base: np.ndarray | None = None  # sweep-independent part of the coupled matrix (Tustin), built on first use
+
+    def submodel(self, j: int) -> _Model:
+        """The 1-mode model of structural mode j with its own diagonal aero terms."""
+        return _Model(1, self.na, self.omega[[j]], self.zeta[[j]], self.c_ref, self.dt_star, self.coupling, self.a,
+                      self.b[:, [j]], self.c[[j], :], self.d[[j]][:, [j]], self.lam_a,
+                      None if self.res is None else self.res[:, [j * self.k + j]])
+
+
+def _struct_vectors(m: _Model, lam: np.ndarray, v: np.ndarray, q: np.ndarray) -> np.ndarray | None:
+    """Normalized structural eigenvector parts [xi; xi'/omega] [n, 2k, nt] of the Tustin eigenvalues lam [n, nt].
+
+    xi spans the null space of T(s) = s^2 I + s G + K - q H(s), H(s) = Dbar + sum_i res_i vc / (s - vc lam_i)
+    (vc = V / c_ref), and xi' = s xi; the aero states follow from xi. xi is found by one step of inverse
+    iteration from a fixed generic vector: the null direction dominates by sigma_(k-1) / sigma_min, i.e. to
+    rounding, since s is an eigenvalue. LAPACK lists a complex pair consecutively, positive imaginary part
+    first; the second member takes the conjugate vector. None when ill-defined (non-finite, T exactly
+    singular): the caller then uses the full eigenvectors.
+    """
+    k = m.k
+    pair = np.zeros(lam.shape, bool)
+    pair[:, 1:] = (lam.imag[:, 1:] < 0) & (lam[:, 1:] == lam[:, :-1].conj())
+    if np.count_nonzero(pair) != np.count_nonzero(lam.imag < 0):  # not in LAPACK pair order: solve all
+        pair[:] = False
+    sel = ~pair
+    ss = lam[sel]
+    with np.errstate(all="ignore"):
+        z = ss[:, None] / np.broadcast_to((v / m.c_ref)[:, None], lam.shape)[sel][:, None] - m.lam_a  # [M, na]
+        t = np.broadcast_to(-q[:, None], lam.shape)[sel][:, None] * (m.d.ravel() + (1.0 / z) @ m.res)  # [M, k*k]
+        t[:, :: k + 1] += (ss * ss)[:, None] + (2.0 * m.zeta * m.omega) * ss[:, None] + m.omega**2
+        try:
+            y = np.linalg.solve(t.reshape(-1, k, k), np.broadcast_to(_rhs(k), (ss.size, k, 1)))[..., 0]
+        except np.linalg.LinAlgError:
+            return None
+        x = np.concatenate([y, (ss[:, None] / m.omega) * y], axis=1)
+        x /= np.linalg.norm(x, axis=1, keepdims=True)
+    if not np.all(np.isfinite(x)):
+        return None
+    out = np.empty(lam.shape + (2 * k,), complex)
+    out[sel] = x
+    if pair.any():
+        ip, jp = np.nonzero(pair)
+        out[ip, jp] = out[ip, jp - 1].conj()
+    return np.swapaxes(out, 1, 2)
+
+
+def _normalized(xs: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Structural eigenvector parts [n, 2k, nt] scaled to [xi; xi'/omega] with unit norm (zero columns stay 0)."""
+    k = omega.size
+    xs = np.concatenate([xs[:, :k], xs[:, k:] / omega[None, :, None]], axis=1)
+    nrm = np.linalg.norm(xs, axis=1, keepdims=True)
+    return xs / np.where(nrm > 0, nrm, 1.0)
+
+
+@functools.lru_cache(maxsize=16)
+def _rhs(k: int) -> np.ndarray:
+    """Fixed generic complex start vector [k, 1] of the inverse iteration."""
+    return ((1.0 + 0.37 * np.arange(k)) * np.exp(0.91j * np.arange(k)))[:, None]
+
+
+class _NoRoot(Exception):
+    """Newton on det T(s) did not converge (internal; the caller falls back to eigen-solves)."""
+
+
+def _newton_root(m: _Model, vc: float, q: float, s0: complex, scale: float, maxit: int = 30) -> complex:
+    """Eigenvalue s (rad/s) of the Tustin coupled system at V/c_ref = vc (1/s), q (Pa) by Newton on det T(s) from s0.
+
+    Step: s <- s - 1 / tr(T^-1 dT/ds) (d ln det T / ds), dT/ds = 2 s I + G + (q / vc) sum_i res_i r_i^2 with
+    r_i = vc / (s - vc lam_i); quadratic near a simple root. Converged when the step is below 1e-11 ``scale``;
+    raises _NoRoot otherwise.
+    """
+    k = m.k
+    lam_a, res = m.lam_a, m.res
+    g = 2.0 * m.zeta * m.omega
+    kd = m.omega**2
+    qd = -q * m.d.ravel()
+    s = complex(s0)
+    with np.errstate(all="ignore"):
+        for _ in range(maxit):
+            r = 1.0 / (s / vc - lam_a)
+            t = qd - q * (r @ res)
+            t[:: k + 1] += s * s + g * s + kd
+            dt = (q / vc) * ((r * r) @ res)
+            dt[:: k + 1] += 2.0 * s + g
+            _, _, x, info = _zgesv(t.reshape(k, k), dt.reshape(k, k))
+            if info > 0:
+                return s  # T(s) exactly singular: s is an eigenvalue
+            tr = complex(x.trace())
+            if info < 0 or not (math.isfinite(tr.real) and math.isfinite(tr.imag)) or tr == 0:
+                break
+            step = 1.0 / tr
+            s -= step
+            if abs(step) <= 1e-11 * scale:
+                return s
+    raise _NoRoot(f"no convergence from {s0}")
 
 
 def _eig_batch(m: _Model, v: np.ndarray, q: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, Any, np.ndarray]:
-    """Eigenvalues s [n, nt] (rad/s), structural eigenvector parts [n, 2k, nt] and alias period (rad/s) [n]."""
+    """Eigenvalues s [n, nt] (rad/s), normalized structural vectors [n, 2k, nt] ([xi; xi'/omega], None without
+    vectors) and alias period (rad/s) [n]."""
     k, na = m.k, m.na
     n2 = 2 * k
     nv = v.size
@@ -187,19 +354,27 @@ def _eig_batch(m: _Model, v: np.ndarray, q: np.ndarray, vectors: bool = True) ->
     qq = q[:, None, None]
     if m.coupling == "tustin":
         n = n2 + na
-        ac = np.zeros((nv, n, n))
-        ac[:, :k, k:n2] = np.eye(k)
-        ac[:, k:n2, :k] = -kk + qq * m.d
-        ac[:, k:n2, k:n2] = -gg
+        if m.base is None:  # the sweep-independent entries
+            m.base = np.zeros((n, n))
+            m.base[:k, k:n2] = np.eye(k)
+            m.base[k:n2, :k] = -kk
+            m.base[k:n2, k:n2] = -gg
+        ac = np.empty((nv, n, n))
+        ac[:] = m.base
+        ac[:, k:n2, :k] += qq * m.d
         ac[:, k:n2, n2:] = qq * m.c
         ac[:, n2:, :k] = vc * m.b
         ac[:, n2:, n2:] = vc * m.a
-        if vectors:
-            lam, vec = np.linalg.eig(ac)
-            xs = vec[:, :n2, :]
-        else:
-            lam, xs = np.linalg.eigvals(ac), None
-        return lam.astype(complex), xs, np.full(nv, np.inf)
+        per = np.full(nv, np.inf)
+        if not vectors:
+            return np.linalg.eigvals(ac).astype(complex), None, per
+        if m.lam_a is not None:
+            lam = np.linalg.eigvals(ac).astype(complex)
+            xs = _struct_vectors(m, lam, v, q)
+            if xs is not None:
+                return lam, xs, per
+        lam, vec = np.linalg.eig(ac)
+        return lam.astype(complex), _normalized(vec[:, :n2, :], m.omega), per
     # zero-order hold: exact structure at dt, discrete coupling
     dt = m.dt_star * m.c_ref / v
     aug = np.zeros((nv, n2 + k, n2 + k))
@@ -219,7 +394,7 @@ def _eig_batch(m: _Model, v: np.ndarray, q: np.ndarray, vectors: bool = True) ->
     ad[:, n2:, n2:] = m.a
     if vectors:
         z, vec = np.linalg.eig(ad)
-        xs = vec[:, :n2, :]
+        xs = _normalized(vec[:, :n2, :], m.omega)
     else:
         z, xs = np.linalg.eigvals(ad), None
     z = z.astype(complex)
@@ -298,13 +473,7 @@ class _Tracker:
     def eig(self, p: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, Any, np.ndarray]:
         """Eigenvalues s, normalized structural vectors [n, 2k, nt] (None without vectors), alias periods."""
         v, rho = self.cond(p)
-        lam, xs, per = _eig_batch(self.m, v, 0.5 * rho * v**2, vectors)
-        if xs is not None:
-            k = self.m.k
-            xs = np.concatenate([xs[:, :k], xs[:, k:] / self.m.omega[None, :, None]], axis=1)
-            nrm = np.linalg.norm(xs, axis=1, keepdims=True)
-            xs = xs / np.where(nrm > 0, nrm, 1.0)
-        return lam, xs, per
+        return _eig_batch(self.m, v, 0.5 * rho * v**2, vectors)
 
     def step(self, prev: _Branches, p0: float, p1: float, lam1: np.ndarray, xs1: np.ndarray, per1: float,
              depth: int = 0) -> _Branches:
@@ -332,8 +501,7 @@ def _single_mode_unstable(
     """
     if m.k == 1:
         return True
-    sub = _Model(1, m.na, m.omega[[j]], m.zeta[[j]], m.c_ref, m.dt_star, m.coupling, m.a, m.b[:, [j]],
-                 m.c[[j], :], m.d[[j]][:, [j]])
+    sub = m.submodel(j)
     tr = _Tracker(sub, cond, weight)
     # fast path: no unstable oscillatory root at all at p_end -> stable (a single-mode hump that returns
     # to stability before p_end would be missed; such a hump is not flutter-critical at q_f anyway)
@@ -432,9 +600,13 @@ def flutter_analysis(
     if not (math.isfinite(sdoff_q_factor) and sdoff_q_factor >= 1.0):
         raise ValueError(f"sdoff_q_factor: must be >= 1, got {sdoff_q_factor!r}")
     a, b, c, d, dt_star = _aero_matrices(aero, k)
+    prep = _aero_prep(a, dt_star, coupling)
+    lam_a = res = None
     if coupling == "tustin":
-        a, b, c, d = tustin_to_continuous(a, b, c, d, dt_star)
-    model = _Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d)
+        a, b, c, d = _tustin_from_prep(prep, a, b, c, d, dt_star)
+        if prep.lam is not None:
+            lam_a, res = prep.lam, ((c @ prep.w).T[:, :, None] * (prep.wi @ b)[:, None, :]).reshape(-1, k * k)
+    model = _Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res)
 
     if rho_ref is None or a_ref is None:
         ref_rho, ref_a = _reference_state(float(altitude_ref_m))
@@ -540,20 +712,72 @@ def flutter_analysis(
         j = int(np.nanargmin(np.abs(lam - pred)))
         return float(lam[j].real)
 
+    def pred_at(p: float, j_branch: int) -> complex:
+        """Linear prediction of branch j_branch's eigenvalue at p between the bracket ends."""
+        lam_a, lam_b = lo_state.lam[j_branch], hi_state.lam[j_branch]
+        return complex(lam_a + (p - lo_p) / (hi_p - lo_p) * (lam_b - lam_a))
+
+    roots: dict[tuple[int, float], complex] = {}
+
+    def re_fast(p: float, j_branch: int) -> float:
+        """re_at from Newton on det T(s) started at the prediction (no eigen-solve); raises _NoRoot."""
+        if p == lo_p:
+            return float(lo_state.lam[j_branch].real)
+        if p == hi_p:
+            return float(hi_state.lam[j_branch].real)
+        v, rho = cond(np.array([p]))
+        pred = pred_at(p, j_branch)
+        s = _newton_root(model, float(v[0]) / c_ref, 0.5 * float(rho[0]) * float(v[0]) ** 2, pred,
+                         max(abs(pred), float(om[j_branch])))
+        roots[(j_branch, p)] = s
+        return s.real
+
     # every branch that first goes unstable inside this interval is refined; the lowest crossing wins
     message = ""
-    p_f, branch = math.inf, -1
     scale = max(abs(hi_p), abs(lo_p), 1e-300)
-    for jb in np.nonzero(first == i_cross)[0]:
-        if re_at(lo_p, int(jb)) > 0:
-            pj = lo_p
-        else:
-            pj = brentq(re_at, lo_p, hi_p, args=(int(jb),), xtol=rtol * scale * 1e-3, rtol=max(rtol, 1e-14))
+    cands = [int(jb) for jb in np.nonzero(first == i_cross)[0]]
+
+    def refine(f: Callable[[float, int], float]) -> list[float]:
+        """Crossing p of each candidate branch with the Re(s) function f (brentq to rtol)."""
+        out = []
+        for jb in cands:
+            if f(lo_p, jb) > 0:
+                out.append(lo_p)
+            else:
+                out.append(brentq(f, lo_p, hi_p, args=(jb,), xtol=rtol * scale * 1e-3, rtol=max(rtol, 1e-14)))
+        return out
+
+    eig_f = None
+    if model.lam_a is not None:
+        # fast path: brentq on Re(s) from Newton roots of det T(s); each crossing is then checked against a full
+        # eigen-solve (the eigenvalue nearest to the prediction is the Newton root), else the eigen-solve path
+        try:
+            p_js = refine(re_fast)
+        except _NoRoot:
+            p_js = None
+        if p_js is not None:
+            chk = [(jb, pj) for jb, pj in zip(cands, p_js, strict=True) if pj != lo_p]
+            if chk:
+                lam_v, xs_v, per_v = tracker.eig(np.array([pj for _, pj in chk]))
+                for i, (jb, pj) in enumerate(chk):
+                    s = roots.get((jb, pj))
+                    near = lam_v[i][int(np.nanargmin(np.abs(lam_v[i] - pred_at(pj, jb))))]
+                    if s is None or abs(near - s) > 1e-8 * max(abs(s), float(om[jb])):
+                        p_js = None
+                        break
+                    if pj == min(p_js):
+                        eig_f = (lam_v[i:i + 1], xs_v[i:i + 1], per_v[i:i + 1])
+    else:
+        p_js = None
+    if p_js is None:
+        p_js, eig_f = refine(re_at), None
+    p_f, branch = math.inf, -1
+    for jb, pj in zip(cands, p_js, strict=True):
         if pj < p_f:
-            p_f, branch = pj, int(jb)
+            p_f, branch = pj, jb
     if p_f == lo_p:
         message = "structural branch already unstable at the start of the sweep; "
-    lam_f, xs_f, per_f = tracker.eig(np.array([p_f]))
+    lam_f, xs_f, per_f = tracker.eig(np.array([p_f])) if eig_f is None else eig_f
     st_f = tracker.step(lo_state, lo_p, p_f, lam_f[0], xs_f[0], float(per_f[0]))
     lam_fl = complex(st_f.lam[branch])
     # modal shares of the flutter eigenvector, [xi; xi'/omega] normalization
