@@ -381,8 +381,9 @@ def pk_flutter(
         return PkResult(mach=mach, sweep=sweep, flutter_found=False, message="no flutter in the sweep range",
                         max_iterations=pk.iterations, **none, **common)
     message = ""
-    if i_cross == 0:
-        lo_s, lo_p = s0, p_vac
+    if i_cross == 0:  # bracket from just after q = 0 (at q = 0 an undamped branch has Re p = 0 exactly)
+        lo_s = s0 + 1e-6 * (float(grid[0]) - s0)
+        lo_p = solve(lo_s, p_vac)
     else:
         lo_s, lo_p = float(grid[i_cross - 1]), path[i_cross - 1]
     hi_s, hi_p = float(grid[i_cross]), path[i_cross]
@@ -405,7 +406,7 @@ def pk_flutter(
             sj = brentq(re_at, lo_s, hi_s, args=(int(j),), xtol=1e-3 * rtol * scale, rtol=max(rtol * 1e-2, 1e-14))
         if sj < s_f:
             s_f, branch = sj, int(j)
-    if s_f == lo_s and i_cross == 0 and lo_p[branch].real >= 0:
+    if s_f == lo_s and i_cross == 0:
         message = "structural branch unstable from the start of the sweep; "
     t = (s_f - lo_s) / (hi_s - lo_s)
     p_f = complex(solve(s_f, np.array([lo_p[branch] + t * (hi_p[branch] - lo_p[branch])]),

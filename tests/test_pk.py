@@ -93,6 +93,13 @@ def test_structural_damping_raises_the_pk_flutter_speed():
     assert damped.v_flutter_m_s > base.v_flutter_m_s * 1.001
 
 
+def test_crossing_inside_the_first_sweep_interval_is_refined():
+    """Four coarse points up to 60 U_REF put the crossing before the first point: still 2.18391 (zeta = 0)."""
+    r = _section_pk(section_h, v_max=60.0 * U_REF, n_points=4)
+    assert r.v_flutter_m_s / U_REF == pytest.approx(UF_K_METHOD, rel=2e-3)
+    assert "start of the sweep" not in r.message
+
+
 def test_table_outside_range_and_bad_input_raise_value_error():
     kg = np.linspace(0.0, 1.0, 11)
     tab = AeroTable(k=kg, h=section_h(kg))
