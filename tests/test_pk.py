@@ -55,8 +55,8 @@ def section_h(k: np.ndarray, ts: TypicalSection = HP) -> np.ndarray:
 
 def _section_pk(aero, **kw):
     w, _ = modes(HP)
-    return pk_flutter(w, aero, HP.c_ref, 0.0, sweep="constant-density", rho_ref=HP.rho, v_max=4.0 * U_REF,
-                      rtol=1e-8, **kw)
+    kw.setdefault("v_max", 4.0 * U_REF)
+    return pk_flutter(w, aero, HP.c_ref, 0.0, sweep="constant-density", rho_ref=HP.rho, rtol=1e-8, **kw)
 
 
 def test_pk_reproduces_theodorsen_k_method_flutter_speed():
