@@ -91,11 +91,17 @@ def rom_identity(solver: str = "uvlm", na: int = 8, nb: int = 8, options: Mappin
 
 
 def make_solver(name: str) -> Any:
-    """Unsteady aerodynamic solver by name."""
+    """Unsteady aerodynamic solver by name: "uvlm", or "tsd" once the transonic solver is installed."""
     if name == "uvlm":
         from romams_core.aero.uvlm import UvlmSolver
 
         return UvlmSolver()
+    if name == "tsd":
+        try:
+            from romams_core.aero.tsd import TsdSolver  # type: ignore[import-not-found]
+        except ImportError as exc:
+            raise ValueError("solver: the transonic small-disturbance solver is not available") from exc
+        return TsdSolver()
     raise ValueError(f"solver: unknown solver {name!r} (available: 'uvlm')")
 
 

@@ -6,20 +6,10 @@ import pytest
 from typer.testing import CliRunner
 
 from romams.cli import app
-from romams.settings import get_settings
 from romams.store import open_store
 
 QUICK = ["--samples", "6", "--mac", "0.98"]
 DESIGN = "x1=0.3,x2=0.4,x3=0.7,x4=0.05,x5=1.0,x6=1.0,x7=0.8"
-
-
-@pytest.fixture()
-def data_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("ROMAMS_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.delenv("ROMAMS_DATABASE_URL", raising=False)
-    get_settings.cache_clear()
-    yield tmp_path
-    get_settings.cache_clear()
 
 
 def _run(*args):

@@ -7,17 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from romams.cli import app
-from romams.settings import get_settings
 from romams.store import open_store
-
-
-@pytest.fixture()
-def data_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("ROMAMS_DATA_DIR", str(tmp_path / "data"))
-    monkeypatch.delenv("ROMAMS_DATABASE_URL", raising=False)
-    get_settings.cache_clear()
-    yield tmp_path
-    get_settings.cache_clear()
 
 
 def test_train_command_json_plots_and_store(data_dir):

@@ -166,18 +166,13 @@ def basis_finalize(job_id: str) -> None:
 
 # ---- training ------------------------------------------------------------------------------------
 def make_solver(name: str) -> Any:
-    """Unsteady solver instance by name ("uvlm", or "tsd" when the transonic solver is installed)."""
-    if name == "uvlm":
-        from romams_core.aero.uvlm import UvlmSolver
+    """Unsteady solver instance by name (romams.pipeline.make_solver); an unknown one fails the job."""
+    from romams.pipeline import make_solver as _make
 
-        return UvlmSolver()
-    if name == "tsd":
-        try:
-            from romams_core.aero.tsd import TsdSolver
-        except ImportError as exc:
-            raise JobFailed("solver: the transonic small-disturbance solver is not available") from exc
-        return TsdSolver()
-    raise JobFailed(f"solver: unknown solver {name!r}")
+    try:
+        return _make(name)
+    except ValueError as exc:
+        raise JobFailed(str(exc)) from exc
 
 
 @app.task(name="romams.training.rom", acks_late=True, time_limit=_settings.training_time_limit_s)
