@@ -4,11 +4,13 @@
 inputs of every flutter search (structural omega [k], projection gamma [m, k], ROM matrices, c_ref) in an
 NPZ, so that later runs are bit-for-bit reproducible (ROM training is not). ``record`` runs every search
 for several sweep/coupling/damping cases and writes the flutter points (q_f, V_f, omega_f, mode, SDOFF)
-and per-structure CPU times; ``compare`` checks a record against a reference record (max relative
+and per-structure CPU times of the flutter searches; ``structure`` times the whole per-structure evaluation
+(modal analysis + evaluate_structure); ``compare`` checks a record against a reference record (max relative
 deviation per field, mode and SDOFF mismatches). Usage:
 
     python -m benchmarks.flutter_regression build  [--fixture F.npz] [--designs 30]
     python -m benchmarks.flutter_regression record [--fixture F.npz] --out R.json [--repeat 3]
+    python -m benchmarks.flutter_regression structure [--fixture F.npz] [--repeat 3]
     python -m benchmarks.flutter_regression compare REF.json NEW.json
 """
 
@@ -115,6 +117,44 @@ def record(fixture: Path, repeat: int = 1, cases: list[str] | None = None) -> di
     return out
 
 
+def structure(fixture: Path, repeat: int = 3) -> dict[str, Any]:
+    """CPU time per structure (modal analysis + evaluate_structure at the fixture's Machs), medians in ms.
+
+    The basis is rebuilt (deterministic) and checked against the fixture's projections.
+    """
+    from romams_core.basis import build_basis_for_wing, project
+    from romams_core.evaluate import evaluate_structure
+    from romams_core.mesh import standard_mesh
+    from romams_core.structure.modal import modal_analysis
+    from romams_core.wing import template
+
+    machs, omega, gamma, roms, c_ref = load(fixture)
+    designs = np.load(fixture)["designs"]
+    wing = template("cropped-delta")
+    mesh = standard_mesh(wing.planform)
+    basis = build_basis_for_wing(wing, 25, 4, 0.9999, 8)
+    first = modal_analysis(wing, designs[0], 4, mesh)
+    if not np.allclose(np.abs(project(basis.shapes, first.shapes).gamma), np.abs(gamma[0]), rtol=1e-6, atol=1e-9):
+        raise SystemExit("fixture: the rebuilt basis does not match the one the ROMs were trained on")
+    rom_map = {float(m): (r, float(c)) for m, r, c in zip(machs, roms, c_ref, strict=True)}
+    zeta = wing.modal_damping or None
+    modal_ms, flutter_ms, total_ms = [], [], []
+    for _ in range(repeat):
+        for x in designs:
+            t0 = time.process_time()
+            modal = modal_analysis(wing, x, 4, mesh)
+            t1 = time.process_time()
+            evaluate_structure(modal, basis.shapes, rom_map, mac_threshold=basis.mac_threshold, zeta=zeta)
+            t2 = time.process_time()
+            modal_ms.append(1e3 * (t1 - t0))
+            flutter_ms.append(1e3 * (t2 - t1))
+            total_ms.append(1e3 * (t2 - t0))
+    return {"structure_cpu_ms_median": float(np.median(total_ms)),
+            "structure_cpu_ms_p90": float(np.percentile(total_ms, 90)),
+            "modal_cpu_ms_median": float(np.median(modal_ms)), "evaluate_cpu_ms_median": float(np.median(flutter_ms)),
+            "designs": int(designs.shape[0]), "repeat": repeat, "machs": machs.tolist(), "target_ms": 50.0}
+
+
 def compare(ref: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     """Max relative deviation of q_f, V_f, omega_f and mode/SDOFF/found mismatches of ``new`` against ``ref``."""
     out: dict[str, Any] = {}
@@ -151,6 +191,9 @@ def main() -> None:
     r.add_argument("--out", type=Path, required=True)
     r.add_argument("--repeat", type=int, default=1)
     r.add_argument("--case", action="append", default=None, help="only these cases (repeatable)")
+    st = sub.add_parser("structure")
+    st.add_argument("--fixture", type=Path, default=DEFAULT_FIXTURE)
+    st.add_argument("--repeat", type=int, default=3)
     c = sub.add_parser("compare")
     c.add_argument("ref", type=Path)
     c.add_argument("new", type=Path)
@@ -162,6 +205,8 @@ def main() -> None:
         args.out.write_text(json.dumps(res))
         print(json.dumps({k: {kk: vv for kk, vv in v.items() if kk != "rows"} for k, v in res["cases"].items()},
                          indent=2))
+    elif args.cmd == "structure":
+        print(json.dumps(structure(args.fixture, args.repeat), indent=2))
     else:
         print(json.dumps(compare(json.loads(args.ref.read_text()), json.loads(args.new.read_text())), indent=2))
 

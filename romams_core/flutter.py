@@ -149,7 +149,7 @@ class _AeroPrep:
 
 _PREP_CACHE: dict[tuple[Any, ...], _AeroPrep] = {}
 _PREP_CACHE_SIZE = 64
-_DIAG_COND_MAX = 1e8  # eigenvector condition number above which the fast (diagonalized) path is not used
+_DIAG_COND_MAX = 1e6  # eigenvector condition number above which the fast (diagonalized) path is not used
 
 
 def _aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> _AeroPrep:
@@ -225,6 +225,19 @@ def _reference_state(altitude_m: float) -> tuple[float, float]:
     return float(st.rho), float(st.a)
 
 
+def _make_model(om: np.ndarray, zt: np.ndarray, c_ref: float, aero: Any, coupling: str) -> _Model:
+    """Validated coupling data of structure (omega [k] rad/s, zeta [k]) and discrete aero model ``aero``."""
+    k = om.size
+    a, b, c, d, dt_star = _aero_matrices(aero, k)
+    prep = _aero_prep(a, dt_star, coupling)
+    lam_a = res = None
+    if coupling == "tustin":
+        a, b, c, d = _tustin_from_prep(prep, a, b, c, d, dt_star)
+        if prep.lam is not None:
+            lam_a, res = prep.lam, ((c @ prep.w).T[:, :, None] * (prep.wi @ b)[:, None, :]).reshape(-1, k * k)
+    return _Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res)
+
+
 @dataclass
 class _Model:
     """Prepared coupling data (internal)."""
@@ -265,28 +278,27 @@ def _struct_vectors(m: _Model, lam: np.ndarray, v: np.ndarray, q: np.ndarray) ->
     singular): the caller then uses the full eigenvectors.
     """
     k = m.k
-    pair = np.zeros(lam.shape, bool)
-    pair[:, 1:] = (lam.imag[:, 1:] < 0) & (lam[:, 1:] == lam[:, :-1].conj())
-    if np.count_nonzero(pair) != np.count_nonzero(lam.imag < 0):  # not in LAPACK pair order: solve all
-        pair[:] = False
-    sel = ~pair
+    neg = lam.imag < 0
+    paired = np.count_nonzero(neg[:, 1:] & (lam[:, 1:] == lam[:, :-1].conj())) == np.count_nonzero(neg)
+    sel = ~neg if paired else np.ones(lam.shape, bool)  # not in LAPACK pair order: solve every eigenvalue
+    rows = np.nonzero(sel)[0]
     ss = lam[sel]
     with np.errstate(all="ignore"):
-        z = ss[:, None] / np.broadcast_to((v / m.c_ref)[:, None], lam.shape)[sel][:, None] - m.lam_a  # [M, na]
-        t = np.broadcast_to(-q[:, None], lam.shape)[sel][:, None] * (m.d.ravel() + (1.0 / z) @ m.res)  # [M, k*k]
-        t[:, :: k + 1] += (ss * ss)[:, None] + (2.0 * m.zeta * m.omega) * ss[:, None] + m.omega**2
+        r = 1.0 / ((ss / (v / m.c_ref)[rows])[:, None] - m.lam_a)  # vc / (s - vc lam_i) [M, na]
+        t = (m.d.ravel() + r @ m.res) * (-q[rows])[:, None]  # [M, k*k]
+        t[:, :: k + 1] += (ss[:, None] + 2.0 * m.zeta * m.omega) * ss[:, None] + m.omega**2
         try:
             y = np.linalg.solve(t.reshape(-1, k, k), np.broadcast_to(_rhs(k), (ss.size, k, 1)))[..., 0]
         except np.linalg.LinAlgError:
             return None
         x = np.concatenate([y, (ss[:, None] / m.omega) * y], axis=1)
         x /= np.linalg.norm(x, axis=1, keepdims=True)
-    if not np.all(np.isfinite(x)):
+    if not np.isfinite(x).all():
         return None
     out = np.empty(lam.shape + (2 * k,), complex)
     out[sel] = x
-    if pair.any():
-        ip, jp = np.nonzero(pair)
+    if paired:
+        ip, jp = np.nonzero(neg)
         out[ip, jp] = out[ip, jp - 1].conj()
     return np.swapaxes(out, 1, 2)
 
@@ -313,8 +325,8 @@ def _newton_root(m: _Model, vc: float, q: float, s0: complex, scale: float, maxi
     """Eigenvalue s (rad/s) of the Tustin coupled system at V/c_ref = vc (1/s), q (Pa) by Newton on det T(s) from s0.
 
     Step: s <- s - 1 / tr(T^-1 dT/ds) (d ln det T / ds), dT/ds = 2 s I + G + (q / vc) sum_i res_i r_i^2 with
-    r_i = vc / (s - vc lam_i); quadratic near a simple root. Converged when the step is below 1e-11 ``scale``;
-    raises _NoRoot otherwise.
+    r_i = vc / (s - vc lam_i); quadratic near a simple root, so a step below 1e-7 ``scale`` leaves an error of
+    order 1e-14 ``scale``: converged. Raises _NoRoot otherwise.
     """
     k = m.k
     lam_a, res = m.lam_a, m.res
@@ -337,7 +349,7 @@ def _newton_root(m: _Model, vc: float, q: float, s0: complex, scale: float, maxi
                 break
             step = 1.0 / tr
             s -= step
-            if abs(step) <= 1e-11 * scale:
+            if abs(step) <= 1e-7 * scale:
                 return s
     raise _NoRoot(f"no convergence from {s0}")
 
@@ -444,21 +456,24 @@ def _assign(
     mac = np.abs(prev.vec.conj().T @ a_c) ** 2
     dist = np.abs(s - prev.lam[:, None]) / np.maximum(np.abs(prev.lam), omega)[:, None]
     cost = (1.0 - mac) + weight * dist
-    cost[~np.isfinite(cost)] = 1e6
-    rows, cols = linear_sum_assignment(cost)
-    cols = cols[np.argsort(rows)]
+    if not np.isfinite(cost).all():
+        cost[~np.isfinite(cost)] = 1e6
+    _, cols = linear_sum_assignment(cost)  # row indices come back sorted (k <= number of candidates)
     idx = np.arange(k)
-    chosen = cost[idx, cols]
+    chosen = cost[idx, cols].tolist()
     new_lam = s[idx, cols] if s.shape[0] == k else lam_c[cols]
     # near-tie: the runner-up costs less than 1.5 x the assigned candidate (+0.002); a smaller step, where
     # the true continuation's cost tends to 0, separates them (e.g. an aero pole beside a mode). Only
     # lightly damped oscillatory branches are checked: a heavily damped pair splitting into two real
-    # roots is a genuine, harmless tie.
-    osc = (prev.lam.imag > 0.05 * omega) & (-prev.lam.real < 0.25 * np.abs(prev.lam))
-    gap = np.inf
-    if osc.any() and cost.shape[1] > 1:
-        cost[idx, cols] = np.inf
-        gap = float(np.min((cost.min(axis=1) - 1.5 * chosen - 0.002)[osc]))
+    # roots is a genuine, harmless tie. (Runner-up of a row: its second-smallest cost when the assigned
+    # one is the smallest, else its smallest.)
+    gap = math.inf
+    if cost.shape[1] > 1:
+        two = np.partition(cost, 1, axis=1)[:, :2].tolist()
+        for j, (lj, wj) in enumerate(zip(prev.lam.tolist(), omega.tolist(), strict=True)):
+            if lj.imag > 0.05 * wj and -lj.real < 0.25 * abs(lj):
+                runner = two[j][1] if chosen[j] == two[j][0] else two[j][0]
+                gap = min(gap, runner - 1.5 * chosen[j] - 0.002)
     return _Branches(new_lam, a_c[:, cols]), float(mac[idx, cols].min()), float(dist[idx, cols].max()), gap
 
 
@@ -599,14 +614,8 @@ def flutter_analysis(
         raise ValueError(f"sdoff_share: must be in (0, 1], got {sdoff_share!r}")
     if not (math.isfinite(sdoff_q_factor) and sdoff_q_factor >= 1.0):
         raise ValueError(f"sdoff_q_factor: must be >= 1, got {sdoff_q_factor!r}")
-    a, b, c, d, dt_star = _aero_matrices(aero, k)
-    prep = _aero_prep(a, dt_star, coupling)
-    lam_a = res = None
-    if coupling == "tustin":
-        a, b, c, d = _tustin_from_prep(prep, a, b, c, d, dt_star)
-        if prep.lam is not None:
-            lam_a, res = prep.lam, ((c @ prep.w).T[:, :, None] * (prep.wi @ b)[:, None, :]).reshape(-1, k * k)
-    model = _Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res)
+    model = _make_model(om, zt, c_ref, aero, coupling)
+    dt_star = model.dt_star
 
     if rho_ref is None or a_ref is None:
         ref_rho, ref_a = _reference_state(float(altitude_ref_m))
@@ -718,18 +727,28 @@ def flutter_analysis(
         return complex(lam_a + (p - lo_p) / (hi_p - lo_p) * (lam_b - lam_a))
 
     roots: dict[tuple[int, float], complex] = {}
+    known: dict[int, list[tuple[float, complex]]] = {}
 
     def re_fast(p: float, j_branch: int) -> float:
-        """re_at from Newton on det T(s) started at the prediction (no eigen-solve); raises _NoRoot."""
+        """re_at from Newton on det T(s) (no eigen-solve); raises _NoRoot.
+
+        Newton starts from the linear interpolation between the nearest points of this branch already
+        known on either side of p (the bracket ends, then brentq's earlier iterates).
+        """
         if p == lo_p:
             return float(lo_state.lam[j_branch].real)
         if p == hi_p:
             return float(hi_state.lam[j_branch].real)
+        pts = known.setdefault(j_branch, [(lo_p, complex(lo_state.lam[j_branch])),
+                                           (hi_p, complex(hi_state.lam[j_branch]))])
+        pa, sa = max((x for x in pts if x[0] < p), key=lambda x: x[0])
+        pb, sb = min((x for x in pts if x[0] > p), key=lambda x: x[0])
+        start = sa + (p - pa) / (pb - pa) * (sb - sa)
         v, rho = cond(np.array([p]))
-        pred = pred_at(p, j_branch)
-        s = _newton_root(model, float(v[0]) / c_ref, 0.5 * float(rho[0]) * float(v[0]) ** 2, pred,
-                         max(abs(pred), float(om[j_branch])))
+        s = _newton_root(model, float(v[0]) / c_ref, 0.5 * float(rho[0]) * float(v[0]) ** 2, start,
+                         max(abs(start), float(om[j_branch])))
         roots[(j_branch, p)] = s
+        pts.append((p, s))
         return s.real
 
     # every branch that first goes unstable inside this interval is refined; the lowest crossing wins
