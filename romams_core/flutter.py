@@ -96,7 +96,7 @@ class FlutterResult:
 # ----------------------------------------------------------------------------------------------
 
 
-def _finite_positive(name: str, value: Any) -> float:
+def finite_positive(name: str, value: Any) -> float:
     """Return ``value`` as float or raise ValueError naming ``name`` unless finite and > 0."""
     try:
         v = float(value)
@@ -107,6 +107,29 @@ def _finite_positive(name: str, value: Any) -> float:
     return v
 
 
+def check_flutter_inputs(
+    omega: Any, zeta: Any, c_ref: Any, mach: Any, sweep: str
+) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Validated (omega [k] rad/s, zeta [k], c_ref m, mach) of a flutter search; ValueError naming the field."""
+    om = np.atleast_1d(np.asarray(omega, dtype=float))
+    if om.ndim != 1 or om.size == 0 or not np.all(np.isfinite(om)) or np.any(om <= 0):
+        raise ValueError("omega: must be a non-empty 1-D array of finite frequencies > 0 (rad/s)")
+    k = om.size
+    if zeta is None:
+        zt = np.zeros(k)
+    else:
+        zt = np.broadcast_to(np.asarray(zeta, dtype=float), (k,)).copy() if np.ndim(zeta) == 0 else np.asarray(
+            zeta, dtype=float)
+        if zt.shape != (k,) or not np.all(np.isfinite(zt)) or np.any(zt < 0) or np.any(zt >= 1):
+            raise ValueError(f"zeta: must be a scalar or [{k}] array of damping ratios in [0, 1)")
+    c = finite_positive("c_ref", c_ref)
+    if not (isinstance(mach, int | float | np.floating) and math.isfinite(mach) and mach >= 0):
+        raise ValueError(f"mach: must be a finite number >= 0, got {mach!r}")
+    if sweep != "constant-density" and mach <= 0:
+        raise ValueError(f"mach: must be > 0 for the {sweep} sweep, got {mach!r}")
+    return om, zt, c, float(mach)
+
+
 def _aero_matrices(aero: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
     """Validated (A, B, C, D, dt_star) of a discrete aero model with k inputs and k outputs."""
     try:
@@ -114,7 +137,7 @@ def _aero_matrices(aero: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarra
         dt_star = aero.dt_star
     except AttributeError as exc:
         raise ValueError(f"aero: needs attributes A, B, C, D, dt_star ({exc})") from None
-    dt_star = _finite_positive("aero.dt_star", dt_star)
+    dt_star = finite_positive("aero.dt_star", dt_star)
     na = a.shape[0] if a.ndim == 2 else -1
     if a.ndim != 2 or a.shape != (na, na):
         raise ValueError(f"aero.A: must be square, got shape {a.shape}")
@@ -591,23 +614,8 @@ def flutter_analysis(
         raise ValueError(f"sweep: must be one of {SWEEPS}, got {sweep!r}")
     if coupling not in COUPLINGS:
         raise ValueError(f"coupling: must be one of {COUPLINGS}, got {coupling!r}")
-    om = np.atleast_1d(np.asarray(omega, dtype=float))
-    if om.ndim != 1 or om.size == 0 or not np.all(np.isfinite(om)) or np.any(om <= 0):
-        raise ValueError("omega: must be a non-empty 1-D array of finite frequencies > 0 (rad/s)")
+    om, zt, c_ref, mach = check_flutter_inputs(omega, zeta, c_ref, mach, sweep)
     k = om.size
-    if zeta is None:
-        zt = np.zeros(k)
-    else:
-        zt = np.broadcast_to(np.asarray(zeta, dtype=float), (k,)).copy() if np.ndim(zeta) == 0 else np.asarray(
-            zeta, dtype=float)
-        if zt.shape != (k,) or not np.all(np.isfinite(zt)) or np.any(zt < 0) or np.any(zt >= 1):
-            raise ValueError(f"zeta: must be a scalar or [{k}] array of damping ratios in [0, 1)")
-    c_ref = _finite_positive("c_ref", c_ref)
-    if not (isinstance(mach, int | float | np.floating) and math.isfinite(mach) and mach >= 0):
-        raise ValueError(f"mach: must be a finite number >= 0, got {mach!r}")
-    mach = float(mach)
-    if sweep != "constant-density" and mach <= 0:
-        raise ValueError(f"mach: must be > 0 for the {sweep} sweep, got {mach!r}")
     if not (isinstance(n_points, int | np.integer) and 4 <= n_points <= 2000):
         raise ValueError(f"n_points: must be an integer in [4, 2000], got {n_points!r}")
     if not (0.0 < sdoff_share <= 1.0):
@@ -619,8 +627,8 @@ def flutter_analysis(
 
     if rho_ref is None or a_ref is None:
         ref_rho, ref_a = _reference_state(float(altitude_ref_m))
-    rho_ref = ref_rho if rho_ref is None else _finite_positive("rho_ref", rho_ref)
-    a_ref = ref_a if a_ref is None else _finite_positive("a_ref", a_ref)
+    rho_ref = ref_rho if rho_ref is None else finite_positive("rho_ref", rho_ref)
+    a_ref = ref_a if a_ref is None else finite_positive("a_ref", a_ref)
 
     # sweep parameter p: V (constant-density), q (constant-speed), or [-1, 0) bridge q-ramp at the
     # top altitude followed by p = h_top - h (matched); p = p_start is q = 0 where the branches start.
@@ -629,7 +637,7 @@ def flutter_analysis(
             if mach <= 0:
                 raise ValueError("v_max: required for a constant-density sweep with mach = 0")
             v_max = 3.0 * mach * a_ref
-        p_end = _finite_positive("v_max", v_max)
+        p_end = finite_positive("v_max", v_max)
 
         def cond(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             return np.asarray(p, float), np.full(np.shape(p), rho_ref)
@@ -637,7 +645,7 @@ def flutter_analysis(
         p_start, grid = 0.0, np.linspace(p_end / n_points, p_end, n_points)
     elif sweep == "constant-speed":
         v0 = mach * a_ref
-        p_end = 4.0 * 0.5 * rho_ref * v0**2 if q_max is None else _finite_positive("q_max", q_max)
+        p_end = 4.0 * 0.5 * rho_ref * v0**2 if q_max is None else finite_positive("q_max", q_max)
 
         def cond(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             p = np.asarray(p, float)

@@ -38,9 +38,9 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import brentq
 
 from romams_core.atmosphere import isa, isa_table
+from romams_core.flutter import SWEEPS, check_flutter_inputs, finite_positive
 from romams_core.mesh import StandardMesh
 
-SWEEPS = ("constant-density", "constant-speed", "matched")
 DEFAULT_ALTITUDE_REF_M = 10_000.0
 
 AeroFn = Callable[[np.ndarray], np.ndarray]
@@ -148,15 +148,6 @@ class PkResult:
     k_red: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
-def _positive(name: str, value: Any) -> float:
-    """``value`` as a float, or ValueError naming ``name`` unless finite and > 0."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be a number, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name}: must be finite and > 0, got {value!r}")
-    return v
 
 
 def _aero_fn(aero: Any, m: int) -> AeroFn:
@@ -268,35 +259,23 @@ def pk_flutter(
     """
     if sweep not in SWEEPS:
         raise ValueError(f"sweep: must be one of {SWEEPS}, got {sweep!r}")
-    om = np.atleast_1d(np.asarray(omega, dtype=float))
-    if om.ndim != 1 or om.size == 0 or not np.all(np.isfinite(om)) or np.any(om <= 0):
-        raise ValueError("omega: must be a non-empty 1-D array of finite frequencies > 0 (rad/s)")
+    om, zt, c_ref, mach = check_flutter_inputs(omega, zeta, c_ref, mach, sweep)
     n = om.size
-    zt = np.zeros(n) if zeta is None else np.broadcast_to(np.asarray(zeta, dtype=float), (n,)).copy() \
-        if np.ndim(zeta) == 0 else np.asarray(zeta, dtype=float)
-    if zt.shape != (n,) or not np.all(np.isfinite(zt)) or np.any(zt < 0) or np.any(zt >= 1):
-        raise ValueError(f"zeta: must be a scalar or [{n}] array of damping ratios in [0, 1)")
-    c_ref = _positive("c_ref", c_ref)
-    if not (isinstance(mach, int | float | np.floating) and math.isfinite(mach) and mach >= 0):
-        raise ValueError(f"mach: must be a finite number >= 0, got {mach!r}")
-    mach = float(mach)
-    if sweep != "constant-density" and mach <= 0:
-        raise ValueError(f"mach: must be > 0 for the {sweep} sweep, got {mach!r}")
     if not (isinstance(n_points, int | np.integer) and 4 <= n_points <= 5000):
         raise ValueError(f"n_points: must be an integer in [4, 5000], got {n_points!r}")
-    rtol = _positive("rtol", rtol)
+    rtol = finite_positive("rtol", rtol)
     h = _aero_fn(aero, n)
     if rho_ref is None or a_ref is None:
         st = isa(float(altitude_ref_m))
         rho_ref = float(st.rho) if rho_ref is None else rho_ref
         a_ref = float(st.a) if a_ref is None else a_ref
-    rho_ref, a_ref = _positive("rho_ref", rho_ref), _positive("a_ref", a_ref)
+    rho_ref, a_ref = finite_positive("rho_ref", rho_ref), finite_positive("a_ref", a_ref)
 
     # sweep parameter s -> (V, rho); s = s0 is q = 0, where the branches start at the in-vacuo poles
     if sweep == "constant-density":
         if v_max is None and mach <= 0:
             raise ValueError("v_max: required for a constant-density sweep with mach = 0")
-        s_end = _positive("v_max", 3.0 * mach * a_ref if v_max is None else v_max)
+        s_end = finite_positive("v_max", 3.0 * mach * a_ref if v_max is None else v_max)
 
         def cond(s: float) -> tuple[float, float]:
             return s, rho_ref
@@ -305,7 +284,7 @@ def pk_flutter(
         grid = np.linspace(s_end / n_points, s_end, n_points)
     elif sweep == "constant-speed":
         v0 = mach * a_ref
-        s_end = 2.0 * rho_ref * v0**2 if q_max is None else _positive("q_max", q_max)
+        s_end = 2.0 * rho_ref * v0**2 if q_max is None else finite_positive("q_max", q_max)
 
         def cond(s: float) -> tuple[float, float]:
             return v0, 2.0 * s / v0**2
@@ -447,7 +426,7 @@ def fom_flutter(
     (PkResult, AeroTable). A root outside the table doubles k_max (twice at most).
     """
     om = np.atleast_1d(np.asarray(omega, dtype=float))
-    dk = _positive("dk", dk)
+    dk = finite_positive("dk", dk)
     mach_f = float(mach)
     if not (math.isfinite(mach_f) and mach_f > 0):
         raise ValueError(f"mach: must be finite and > 0, got {mach!r}")
