@@ -23,7 +23,9 @@ CHROMIUM = "/usr/bin/chromium"
 def _chromium() -> str:
     """Path of the system Chromium, installing it with apt-get if absent."""
     if not Path(CHROMIUM).exists() and shutil.which("apt-get"):
-        subprocess.run(["apt-get", "install", "-y", "chromium"], capture_output=True, timeout=600)
+        # a fresh machine may have no package lists yet: update once, then install
+        subprocess.run(["apt-get", "update"], capture_output=True, timeout=600)
+        subprocess.run(["apt-get", "install", "-y", "chromium"], capture_output=True, timeout=900)
     if not Path(CHROMIUM).exists():
         if CI:
             pytest.fail("Chromium is not installed at /usr/bin/chromium")
