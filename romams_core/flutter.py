@@ -676,11 +676,16 @@ def flutter_analysis(
     lam_path = np.empty((grid.size, k), complex)
     states: list[_Branches] = []
     p_prev = p_start
+    crossed = False  # a branch is unstable at an earlier grid point: the first crossing is bracketed
     for i in range(grid.size):
-        state = tracker.step(state, p_prev, grid[i], lam_g[i], xs_g[i], float(per_g[i]))
+        # past the bracketed first crossing the split sub-steps would only shape the post-flutter V-g curves
+        state = tracker.step(state, p_prev, grid[i], lam_g[i], xs_g[i], float(per_g[i]), 2 if crossed else 0)
         lam_path[i] = state.lam
         states.append(state)
         p_prev = grid[i]
+        if not crossed:
+            with np.errstate(invalid="ignore"):
+                crossed = bool(np.any(2.0 * state.lam.real / np.abs(state.lam) > 1e-9))
 
     # first zero crossing of Re(s) on any structural branch
     g_path = 2.0 * lam_path.real / np.abs(lam_path)
