@@ -291,7 +291,7 @@ def test_flutter_bad_input_is_rejected_and_stores_nothing(svc):
             422, "design.x1", "finite")
     problem(c.post(url, json={"design": DESIGN, "modes_id": 1}), 422, "body", "at most one")
     problem(c.post(url, json={"modes_id": 9999}), 404, "modes_id")
-    problem(c.post(url, json={"design": DESIGN, "method": "rom-pms"}), 422, "method")
+    problem(c.post(url, json={"design": DESIGN, "method": "dlm"}), 422, "method")
     nodes = [[x, y, 0.0] for x in (0.0, 0.2, 0.4) for y in (0.0, 0.3, 0.6)]
     problem(c.post(url, json={"modes": {"nodes": nodes, "shapes": [[0.0] * 5], "frequencies_hz": [10.0]}}),
             422, "modes.shapes")
