@@ -377,40 +377,6 @@ def _newton_root(m: _Model, vc: float, q: float, s0: complex, scale: float, maxi
     raise _NoRoot(f"no convergence from {s0}")
 
 
-def _newton_roots(m: _Model, vc: float, q: float, s0: np.ndarray, scale: np.ndarray, maxit: int = 30) -> Any:
-    """Roots s [k] (rad/s) of det T(s) at V/c_ref = vc (1/s), q (Pa), Newton from s0 [k] for all k at once; None
-    when not converged (steps below 1e-7 ``scale`` [k]) or singular."""
-    k = m.k
-    g = 2.0 * m.zeta * m.omega
-    w2 = m.omega**2
-    dg = np.arange(0, k * k, k + 1)
-    qd = -q * m.d.ravel()
-    ivc, qv = 1.0 / vc, q / vc
-    tol = 1e-7 * scale
-    s = np.array(s0, complex)
-    with np.errstate(all="ignore"):
-        for _ in range(maxit):
-            sc = s[:, None]
-            r = 1.0 / (sc * ivc - m.lam_a)  # [k, na]
-            rr = np.concatenate((r, r * r)) @ m.res  # [2k, k*k]
-            t = qd - q * rr[:k]
-            t[:, dg] += (sc + g) * sc + w2
-            dt = qv * rr[k:]
-            dt[:, dg] += 2.0 * sc + g
-            try:
-                x = np.linalg.solve(t.reshape(k, k, k), dt.reshape(k, k, k))
-            except np.linalg.LinAlgError:
-                return None
-            step = 1.0 / np.einsum("ijj->i", x)
-            s = s - step
-            a = np.abs(step)
-            if (a <= tol).all():
-                return s
-            if not np.isfinite(a).all():
-                return None
-    return None
-
-
 def _eig_batch(m: _Model, v: np.ndarray, q: np.ndarray, vectors: bool = True) -> tuple[np.ndarray, Any, np.ndarray]:
     """Eigenvalues s [n, nt] (rad/s), normalized structural vectors [n, 2k, nt] ([xi; xi'/omega], None without
     vectors) and alias period (rad/s) [n]."""
@@ -548,16 +514,11 @@ class _Tracker:
         return _eig_batch(self.m, v, 0.5 * rho * v**2, vectors)
 
     def step(self, prev: _Branches, p0: float, p1: float, lam1: np.ndarray, xs1: np.ndarray, per1: float,
-             depth: int = 0, newton: bool = False) -> _Branches:
+             depth: int = 0) -> _Branches:
         """Track from p0 (state prev) to p1 (given eigen-data); an ambiguous step is split in four sub-steps
-        (one batched eigen-solve of the three interior points), at most twice (1/16 of a step). With ``newton``
-        (Tustin fast path) an ambiguous step is first resolved by Newton continuation of the branch roots."""
+        (one batched eigen-solve of the three interior points), at most twice (1/16 of a step)."""
         new, mac_min, jump, gap = _assign(prev, lam1, xs1, per1, self.weight, self.m.omega)
         if (mac_min < 0.8 or jump > 1.0 or gap < 0.0) and depth < 2:
-            if newton:
-                st = self._newton_step(prev, p0, p1, lam1, xs1)
-                if st is not None:
-                    return st
             ps = p0 + (p1 - p0) * np.array([0.25, 0.5, 0.75])
             lam_m, xs_m, per_m = self.eig(ps)
             state, pa = prev, p0
@@ -566,38 +527,6 @@ class _Tracker:
                 pa = ps[i]
             return self.step(state, pa, p1, lam1, xs1, per1, depth + 1)
         return new
-
-    def _newton_step(self, prev: _Branches, p0: float, p1: float, lam1: np.ndarray, xs1: np.ndarray,
-                     max_depth: int = 5) -> _Branches | None:
-        """Branch state at p1 from Newton continuation of prev's roots on det T(s) (steps halved while a root
-        lands further than 0.2 max(|s|, omega_j) from its linear prediction or two branches meet), each root
-        matched to its eigenvalue among lam1 (to 1e-6); None when that fails."""
-        m = self.m
-        k = m.k
-        off = np.diag(np.full(k, np.inf))
-
-        def advance(p_a: float, s_a: np.ndarray, p_b: float, s_b: np.ndarray, p: float, depth: int) -> Any:
-            pred = s_b + min((p - p_b) / (p_b - p_a), 2.0) * (s_b - s_a)
-            scale = np.maximum(np.abs(s_b), m.omega)
-            v, rho = self.cond(np.array([p]))
-            s = _newton_roots(m, float(v[0]) / m.c_ref, 0.5 * float(rho[0]) * float(v[0]) ** 2, pred, scale)
-            ok = s is not None and not np.any(np.abs(s - pred) > 0.2 * scale)
-            if ok and k > 1:
-                ok = not np.any(np.abs(s[:, None] - s[None, :]) + off <= 1e-6 * scale[:, None])
-            if ok or depth >= max_depth:
-                return s if ok else None
-            p_m = 0.5 * (p_b + p)
-            s_m = advance(p_a, s_a, p_b, s_b, p_m, depth + 1)
-            return None if s_m is None else advance(p_b, s_b, p_m, s_m, p, depth + 1)
-
-        s = advance(p0 - (p1 - p0), prev.lam, p0, prev.lam, p1, 0)
-        if s is None:
-            return None
-        d = np.abs(lam1[None, :] - s[:, None])
-        cols = np.argmin(d, axis=1)
-        if np.unique(cols).size < k or np.any(d[np.arange(k), cols] > 1e-6 * np.maximum(np.abs(s), m.omega)):
-            return None
-        return _Branches(lam1[cols], xs1[:, cols])
 
 
 def _single_mode_unstable(
@@ -747,18 +676,11 @@ def flutter_analysis(
     lam_path = np.empty((grid.size, k), complex)
     states: list[_Branches] = []
     p_prev = p_start
-    crossed = False  # a branch is unstable at an earlier grid point: the first crossing is bracketed
     for i in range(grid.size):
-        # past the bracketed first crossing an ambiguous step only shapes the post-flutter V-g curves: Newton
-        # continuation of the branch roots resolves it before any split sub-steps
-        state = tracker.step(state, p_prev, grid[i], lam_g[i], xs_g[i], float(per_g[i]),
-                              newton=crossed and model.lam_a is not None)
+        state = tracker.step(state, p_prev, grid[i], lam_g[i], xs_g[i], float(per_g[i]))
         lam_path[i] = state.lam
         states.append(state)
         p_prev = grid[i]
-        if not crossed:
-            with np.errstate(invalid="ignore"):
-                crossed = bool(np.any(2.0 * state.lam.real / np.abs(state.lam) > 1e-9))
 
     # first zero crossing of Re(s) on any structural branch
     g_path = 2.0 * lam_path.real / np.abs(lam_path)

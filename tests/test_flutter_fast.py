@@ -46,24 +46,16 @@ def both_paths(monkeypatch: pytest.MonkeyPatch, fn):
 
 
 def assert_same(fast, ref) -> None:
-    """Same flutter point (1e-9), mode, SDOFF flag and V-g data up to the first unstable grid point.
-
-    After that point an ambiguous tracking step is resolved by Newton continuation of the branch roots on the
-    fast path and by split sub-steps on the reference path, so the post-flutter V-g curves may follow
-    different roots where branches are ambiguous; there only the shape and finiteness are compared.
-    """
+    """Same flutter point (1e-9), mode, SDOFF flag and V-g data."""
     assert fast.flutter_found == ref.flutter_found
     assert fast.flutter_mode == ref.flutter_mode
     assert fast.sdoff == ref.sdoff and fast.single_mode_unstable == ref.single_mode_unstable
-    n = fast.g.shape[0]
     if ref.flutter_found:
         for f in ("q_flutter_pa", "v_flutter_m_s", "omega_flutter_rad_s", "energy_share"):
             assert getattr(fast, f) == pytest.approx(getattr(ref, f), rel=1e-9, abs=1e-12), f
         np.testing.assert_allclose(fast.modal_share, ref.modal_share, atol=1e-9)
-        n = int(np.argmax((ref.g > 1e-9).any(axis=1))) + 1  # up to and including the first unstable point
-    assert fast.g.shape == ref.g.shape and np.isfinite(fast.g).all()
-    np.testing.assert_allclose(fast.g[:n], ref.g[:n], atol=1e-9)
-    np.testing.assert_allclose(np.abs(fast.omega[:n]), np.abs(ref.omega[:n]), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(fast.g, ref.g, atol=1e-9)
+    np.testing.assert_allclose(np.abs(fast.omega), np.abs(ref.omega), rtol=1e-9, atol=1e-9)
 
 
 def test_defective_aero_matrix_keeps_the_reference_path():
@@ -131,18 +123,6 @@ def test_newton_root_converges_to_an_eigenvalue():
         for s_true in osc:
             s = fl._newton_root(model, v[i] / model.c_ref, q[i], s_true * (1.0 + 0.01j), abs(s_true))
             assert abs(s - s_true) <= 1e-10 * abs(s_true)
-
-
-def test_batched_newton_roots_match_the_scalar_newton_and_the_eigenvalues():
-    """_newton_roots (all k branches at once) from starts 1 % off: the coupled matrix's eigenvalues (1e-10)."""
-    model, v, q = _model_and_points()
-    lam, _, _ = fl._eig_batch(model, v, q, vectors=False)
-    for i in range(v.size):
-        osc = lam[i][(lam[i].imag > 10.0) & (np.abs(lam[i]) < 600.0)]
-        s_true = osc[:model.k]
-        s = fl._newton_roots(model, v[i] / model.c_ref, q[i], s_true * (1.0 + 0.01j), np.abs(s_true))
-        assert s is not None
-        np.testing.assert_allclose(s, s_true, rtol=1e-10)
 
 
 def test_aero_preparation_is_cached_per_matrix_and_checks_repeat():

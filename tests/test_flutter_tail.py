@@ -1,9 +1,9 @@
 """The flutter point does not depend on the sweep beyond the first unstable grid point.
 
-After the first crossing of Re(s) = 0 is bracketed, the tracker no longer splits ambiguous steps (the split
-sub-steps only shaped the post-flutter V-g curves). Extending the sweep range (twice the range with twice
-the points, the same grid up to the original end to rounding) must therefore leave the flutter point and the
-V-g data up to the crossing unchanged, and the V-g arrays keep every coarse grid point.
+Tracking steps after the first bracketed crossing of Re(s) = 0 (and their split sub-steps) only shape the
+post-flutter V-g curves. Extending the sweep range (twice the range with twice the points, the same grid up
+to the original end to rounding) must therefore leave the flutter point and the V-g data up to the crossing
+unchanged, and the V-g arrays keep every coarse grid point.
 """
 
 from __future__ import annotations
