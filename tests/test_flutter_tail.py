@@ -8,23 +8,11 @@ unchanged, and the V-g arrays keep every coarse grid point.
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 import pytest
+from test_flutter_fast import OMEGA4, random_rom  # the same random coupled ROMs
 
 from romams_core.flutter import flutter_analysis
-
-OMEGA4 = np.array([60.0, 150.0, 260.0, 420.0])
-
-
-def random_rom(seed: int, na: int = 10, k: int = 4) -> SimpleNamespace:
-    """A coupled, stable discrete aero model (spectral radius 0.92) with k inputs/outputs, dt* = 0.1."""
-    rng = np.random.default_rng(seed)
-    q1, _ = np.linalg.qr(rng.standard_normal((na, na)))
-    q2, _ = np.linalg.qr(rng.standard_normal((na, na)))
-    return SimpleNamespace(A=0.92 * q1 @ q2, B=0.3 * rng.standard_normal((na, k)),
-                           C=0.3 * rng.standard_normal((k, na)), D=0.5 * rng.standard_normal((k, k)), dt_star=0.1)
 
 KW = dict(zeta=0.01, a_ref=300.0, rho_ref=1.0)
 Q_END = 4.0 * 0.5 * 1.0 * (0.8 * 300.0) ** 2  # the default q_max of these searches (Pa)

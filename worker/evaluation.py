@@ -18,7 +18,17 @@ from romams.serialize import to_jsonable
 from romams.store import content_hash
 from worker.cache import LruCache
 from worker.celery_app import app
-from worker.tasks import OBJECTS, _run, _settings, load_basis, load_mesh, load_rom, load_wing, store
+from worker.tasks import (
+    OBJECTS,
+    _run,
+    _settings,
+    chunk_outcome,
+    load_basis,
+    load_mesh,
+    load_rom,
+    load_wing,
+    store,
+)
 
 RESULTS = LruCache(_settings.result_cache_size)  # content hash -> summary dict of one design
 
@@ -223,13 +233,8 @@ def flutter_chunk(job_id: str) -> None:
 def assemble_batch(parent_id: str) -> None:
     """After a chunk: update the batch's progress; when all chunks succeeded, the claimer writes the results."""
     s = store()
-    kids = s.children(parent_id)
-    if any(k["status"] == "cancelled" for k in kids):
-        s.finish_job(parent_id, "cancelled", message="a chunk was cancelled")
-        return
-    failed = [k for k in kids if k["status"] == "failed"]
-    if failed:
-        s.finish_job(parent_id, "failed", error=f"chunk {failed[0]['params'].get('index')}: {failed[0]['error']}")
+    kids = chunk_outcome(s, parent_id)
+    if kids is None:
         return
     done = [k for k in kids if k["status"] == "succeeded"]
     s.update_job(parent_id, expect=("queued",), status="running")

@@ -101,17 +101,25 @@ def basis_job(job_id: str) -> None:
     _run(job_id, body, finish=False)
 
 
-def _after_chunk(parent_id: str, finalize_task: str, lo: float, hi: float) -> None:
-    """Update a fan-out parent after one of its chunks ended; the last one sends ``finalize_task``."""
-    s = store()
+def chunk_outcome(s: Store, parent_id: str) -> list[dict[str, Any]] | None:
+    """The chunks of a fan-out parent, or None after ending the parent because a chunk was cancelled or failed."""
     kids = s.children(parent_id)
     if any(k["status"] == "cancelled" for k in kids):
         s.finish_job(parent_id, "cancelled", message="a chunk was cancelled")
-        return
+        return None
     failed = [k for k in kids if k["status"] == "failed"]
     if failed:
         first = failed[0]
         s.finish_job(parent_id, "failed", error=f"chunk {first['params'].get('index')} failed: {first['error']}")
+        return None
+    return kids
+
+
+def _after_chunk(parent_id: str, finalize_task: str, lo: float, hi: float) -> None:
+    """Update a fan-out parent after one of its chunks ended; the last one sends ``finalize_task``."""
+    s = store()
+    kids = chunk_outcome(s, parent_id)
+    if kids is None:
         return
     done = sum(k["status"] == "succeeded" for k in kids)
     s.set_progress(parent_id, lo + (hi - lo) * done / max(len(kids), 1), f"{done}/{len(kids)} chunks done")
