@@ -25,9 +25,9 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
     """Build the app for ``settings`` (default: the environment); ``celery`` overrides the task sender."""
     settings = settings or get_settings()
     if celery is None:
-        from worker.celery_app import make_app
+        from romams.services.queue import make_celery
 
-        celery = make_app(settings)
+        celery = make_celery(settings)
     store = open_store(settings)
 
     @contextlib.asynccontextmanager

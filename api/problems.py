@@ -99,6 +99,18 @@ def install(app: FastAPI) -> None:
                                 headers=getattr(exc, "headers", None))
 
     from romams.jobs import BrokerUnavailable
+    from romams.services.errors import ServiceError, from_input_error
+    from romams_core.errors import InputError
+
+    @app.exception_handler(ServiceError)
+    async def _service(request: Request, exc: ServiceError) -> JSONResponse:
+        return problem_response(exc.status, exc.detail, field=exc.field, instance=str(request.url.path),
+                                extra=exc.extra)
+
+    @app.exception_handler(InputError)
+    async def _input(request: Request, exc: InputError) -> JSONResponse:
+        err = from_input_error(exc)
+        return problem_response(err.status, err.detail, field=err.field, instance=str(request.url.path))
 
     @app.exception_handler(BrokerUnavailable)
     async def _broker(request: Request, exc: BrokerUnavailable) -> JSONResponse:

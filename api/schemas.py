@@ -40,7 +40,10 @@ class BasisRequest(_Strict):
 
     samples: int = Field(default=25, ge=2)
     modes: int = Field(default=4, ge=1)
-    mac_threshold: float = Field(default=0.98, gt=0.0, lt=1.0)
+    mac_threshold: float = Field(
+        default=0.9999, gt=0.0, lt=1.0,
+        description="every sample mode must fit with MAC >= this; the default 0.9999 (8 shapes on the cropped "
+                    "delta) keeps ROM-AMS within 1 % of ROM-PMS in flutter speed; 0.98 does not")
     max_basis: int = Field(default=12, ge=1, le=100)
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
 
@@ -53,9 +56,9 @@ class JobRef(BaseModel):
 
 
 class RomRequest(_Strict):
-    """ROM training: one Mach (``mach``) or several (``machs``), solver and ARX orders."""
+    """ROM training: one Mach (``mach``) or several (``machs``), solver and ARX orders (Mach 0: incompressible)."""
 
-    mach: FiniteFloat | None = Field(default=None, gt=0.0, lt=1.5)
+    mach: FiniteFloat | None = Field(default=None, ge=0.0, lt=1.5)
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
     solver: Literal["uvlm", "tsd"] = "uvlm"
     na: int = Field(default=8, ge=1, le=40)
@@ -68,8 +71,8 @@ class RomRequest(_Strict):
         if (self.mach is None) == (self.machs is None):
             raise ValueError("give exactly one of 'mach' or 'machs'")
         for m in self.machs or []:
-            if not 0.0 < m < 1.5:
-                raise ValueError(f"machs: {m} is outside (0, 1.5)")
+            if not 0.0 <= m < 1.5:
+                raise ValueError(f"machs: {m} is outside [0, 1.5)")
         return self
 
 
@@ -83,7 +86,24 @@ class ModesIn(_Strict):
     mass_kg: FiniteFloat | None = None
 
 
-class FlutterRequest(_Strict):
+class FlightFields(_Strict):
+    """Flight condition of a flutter search (absent fields take the service's defaults)."""
+
+    sweep: Literal["constant-speed", "constant-density", "matched"] | None = Field(
+        default=None, description="constant-speed (default: V = M a at altitude_ref_m, density swept), "
+        "constant-density (V swept at the reference density; always used at Mach 0), matched (altitude swept, "
+        "V = M a(h))")
+    altitude_ref_m: FiniteFloat | None = Field(default=None, ge=0.0, le=20_000.0,
+                                               description="ISA reference altitude (default 10000 m)")
+    rho_ref: FiniteFloat | None = Field(default=None, gt=0.0, description="reference density (kg/m^3), overrides "
+                                                                          "the ISA density at altitude_ref_m")
+    v_max_m_s: FiniteFloat | None = Field(default=None, gt=0.0, description="constant-density sweep: top speed "
+                                          "(m/s; default 3 M a_ref, or from the structure at Mach 0)")
+    q_max_pa: FiniteFloat | None = Field(default=None, gt=0.0, description="constant-speed sweep: top dynamic "
+                                                                           "pressure (Pa; default 4 q_ref)")
+
+
+class FlutterRequest(FlightFields):
     """One structure: design variables (by name or as a vector), or external modes, or an uploaded modes id."""
 
     design: Design | None = None
@@ -95,7 +115,7 @@ class FlutterRequest(_Strict):
         description="rom-ams: the trained basis ROMs (fast, synchronous). rom-pms: the reference -- an ARX model "
         "identified on this structure's own modes at every Mach with the trained ROMs' solver settings; "
         "a training-queue job (202 with job_id).")
-    basis_id: int | None = None
+    basis_id: int | None = Field(default=None, description="basis to use (default: the wing's active basis)")
     store: bool = Field(default=True, description="store the evaluation (V-g data, plots)")
 
     @model_validator(mode="after")
@@ -105,13 +125,59 @@ class FlutterRequest(_Strict):
         return self
 
 
-class BatchRequest(_Strict):
+class BatchRequest(FlightFields):
     """A batch of designs evaluated at the given (default: all trained) Mach numbers."""
 
     designs: list[Design] = Field(min_length=1)
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
     method: Literal["rom-ams"] = "rom-ams"
-    basis_id: int | None = None
+    basis_id: int | None = Field(default=None, description="basis to use (default: the wing's active basis)")
+
+
+class ActiveBasis(_Strict):
+    """The basis that evaluations of a wing use by default."""
+
+    basis_id: int
+
+
+class MachResult(BaseModel):
+    """Flutter point at one Mach number (None where no flutter was found in the sweep range)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    mach: float
+    flutter_found: bool
+    v_flutter_m_s: float | None = Field(description="TRUE airspeed at the flutter point (m/s) of the sweep used "
+                                                    "(for constant-speed: M a_ref); same as v_true_m_s")
+    v_true_m_s: float | None = Field(description="true airspeed at the flutter point (m/s)")
+    v_eas_m_s: float | None = Field(description="equivalent airspeed sqrt(2 q_f / rho_0), rho_0 = ISA sea level")
+    q_flutter_pa: float | None = Field(description="dynamic pressure at the flutter point (Pa)")
+    omega_flutter_rad_s: float | None = Field(description="flutter frequency (rad/s)")
+    flutter_mode: int | None = Field(description="1-based structural mode the flutter branch starts from")
+    sdoff: bool
+    sweep: str = Field(description="the sweep used at this Mach (constant-density at Mach 0)")
+    altitude_ref_m: float | None = Field(description="ISA reference altitude (m) of rho_ref and a_ref")
+    rho_ref_kg_m3: float | None = Field(description="reference density (kg/m^3)")
+
+
+class FlutterSummary(BaseModel):
+    """Flutter evaluation of one structure: the same keys from the API, ``romams flutter --json`` and in-process."""
+
+    model_config = ConfigDict(extra="allow")
+
+    wing: str
+    method: str
+    basis_id: int
+    flight_condition: dict[str, Any]
+    mass_kg: float | None
+    frequencies_hz: list[float]
+    mac: list[float]
+    min_mac: float
+    mac_ok: bool
+    fit_error_estimate_pct: float = Field(description="estimated ROM-AMS flutter-speed error from the mode fit (%)")
+    warning: str | None = Field(description="set when the structure fits the basis worse than it was validated for")
+    results: list[MachResult]
+    constraints_ok: bool
 
 
 class JobOut(BaseModel):

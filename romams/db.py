@@ -59,6 +59,8 @@ class Wing(Base):
     name: Mapped[str] = mapped_column(String(200), unique=True)
     definition: Mapped[dict[str, Any]] = mapped_column(JSON)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+    # the basis evaluations use by default (set explicitly; the first basis of a wing becomes active)
+    active_basis_id: Mapped[int | None] = mapped_column(Integer, nullable=True)
 
 
 class BasisRow(Base):

@@ -13,8 +13,11 @@ import threading
 import time
 import traceback
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
+from romams.services.errors import error_dict
+from romams.services.queue import FINALIZE_FOR_KIND, TASK_FOR_KIND
 from romams.store import Store
 
 try:  # the core's cancellation exception, raised by progress callbacks and passed through by solvers
@@ -25,22 +28,24 @@ except ImportError:  # pragma: no cover - the protocol module is part of the cor
         """Raised to abort a cancelled job."""
 
 
-#: task name that runs a job of each kind (the sweeper re-sends by kind)
-TASK_FOR_KIND = {
-    "basis": "romams.training.basis",
-    "basis-chunk": "romams.training.basis_chunk",
-    "training": "romams.training.rom",
-    "flutter": "romams.evaluation.flutter",
-    "flutter-chunk": "romams.evaluation.flutter_chunk",
-    "flutter-pms": "romams.training.flutter_pms",
-}
-FINALIZE_FOR_KIND = {"basis": "romams.training.basis_finalize", "flutter-batch": "romams.evaluation.batch_finalize"}
-
 ProgressFn = Callable[[float, str], None]
 
 
 class JobFailed(Exception):
     """A job failure with a user-facing reason (stored as the job's error text)."""
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a task's job ended: its final status, the body's result and the structured error (if failed)."""
+
+    status: str | None  # succeeded | failed | cancelled, None when the job was not run (final, absent, over cap)
+    result: Any = None
+    error: dict[str, Any] | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON form returned through the result backend."""
+        return {"status": self.status, "result": self.result, "error": self.error}
 
 
 class BrokerUnavailable(RuntimeError):
@@ -65,6 +70,26 @@ def submit(store: Store, celery: Any, kind: str, params: dict[str, Any], *, wing
     if send_now:
         send(celery, TASK_FOR_KIND[kind], job_id, store)
     return job_id
+
+
+def wait_result(celery: Any, job_id: str, timeout_s: float, poll_s: float = 0.005) -> dict[str, Any] | None:
+    """The outcome dict a task returned through the result backend (None on timeout); nothing polls the jobs table.
+
+    With Redis the reply is pushed (publish/subscribe); the embedded SQLite backend is read every ``poll_s``.
+    """
+    from celery.exceptions import TimeoutError as CeleryTimeout
+
+    res = celery.AsyncResult(job_id)
+    try:
+        out = res.get(timeout=timeout_s, interval=poll_s, propagate=False, disable_sync_subtasks=False)
+    except CeleryTimeout:
+        return None
+    finally:
+        try:
+            res.forget()
+        except Exception:  # noqa: BLE001 - a backend that cannot forget keeps the result until it expires
+            pass
+    return out if isinstance(out, dict) else None
 
 
 def wait_for(store: Store, job_id: str, timeout_s: float, poll_s: float = 0.01) -> dict[str, Any] | None:
@@ -131,35 +156,43 @@ def progress_callback(store: Store, job_id: str, lo: float = 0.0, hi: float = 1.
 
 
 def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressFn], Any], *, max_deliveries: int,
-            heartbeat_s: float, count_delivery: bool = True, finish: bool = True) -> Any:
-    """Run ``body(job, progress)`` for a job row with guarded start/finish; returns body's result (or None)."""
+            heartbeat_s: float, count_delivery: bool = True, finish: bool = True) -> Outcome:
+    """Run ``body(job, progress)`` for a job row with guarded start/finish; returns the Outcome.
+
+    A failure stores the error text and, as the job's result, the structured error ``{"error": {status,
+    field, detail, reason}}`` (typed errors keep their field from the core to the HTTP problem).
+    """
     if count_delivery:
         ok, _ = store.start_job(job_id, max_deliveries)
         if not ok:
-            return None
+            return Outcome(None)
     elif store.job_status(job_id) != "running":
-        return None
+        return Outcome(None)
     job = store.get_job(job_id)
     if job is None:
-        return None
+        return Outcome(None)
     try:
         with _Heartbeat(store, job_id, heartbeat_s):
             result = body(job, progress_callback(store, job_id))
     except Cancelled:
         store.finish_job(job_id, "cancelled", message="cancelled")
-        return None
+        return Outcome("cancelled")
     except (ValueError, KeyError, JobFailed) as exc:
-        store.finish_job(job_id, "failed", error=f"{type(exc).__name__}: {exc}", message="failed")
-        return None
+        err = error_dict(exc) if isinstance(exc, ValueError) else {"status": 500, "field": None,
+                                                                    "detail": str(exc), "reason": str(exc)}
+        store.finish_job(job_id, "failed", error=f"{type(exc).__name__}: {exc}", message="failed",
+                         result={"error": err})
+        return Outcome("failed", error=err)
     except Exception as exc:  # noqa: BLE001 - every failure must end in a final job state
         tb = traceback.format_exc(limit=8)
         name = type(exc).__name__
         reason = "time limit exceeded" if name in ("SoftTimeLimitExceeded", "TimeLimitExceeded") else str(exc)
         store.finish_job(job_id, "failed", error=f"{name}: {reason}\n{tb}", message="failed")
-        return None
+        return Outcome("failed", error={"status": 500, "field": None, "detail": f"{name}: {reason}",
+                                        "reason": reason})
     if finish:
         store.finish_job(job_id, "succeeded", result=result, message="done")
-    return result
+    return Outcome("succeeded", result)
 
 
 def sweep_stale(store: Store, celery: Any, stale_s: float) -> list[str]:

@@ -7,17 +7,17 @@ one is found by the other (ROM identity = solver, ARX orders and training option
 
 from __future__ import annotations
 
-import math
 import os
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from romams.services.evaluation import DEFAULT_MAC_THRESHOLD, DEFAULT_N_MODES, Models
+from romams.services.models import activate_first_basis, resolve_basis_id
 from romams_core.basis import Basis, build_basis, build_basis_for_wing, snapshot
 from romams_core.mesh import StandardMesh, standard_mesh
 from romams_core.wing import WingDefinition, template
@@ -61,13 +61,16 @@ def ensure_basis(
     wing: WingDefinition,
     *,
     samples: int = 25,
-    modes: int = 4,
-    mac_threshold: float = 0.98,
+    modes: int = DEFAULT_N_MODES,
+    mac_threshold: float = DEFAULT_MAC_THRESHOLD,
     max_basis: int = 12,
     seed: int = 0,
     log: Log = _stderr,
 ) -> tuple[int, Basis]:
-    """(id, Basis): the stored basis built with these parameters, else build it now (saying so) and store it."""
+    """(id, Basis): the stored basis built with these parameters, else build it now (saying so) and store it.
+
+    A newly built basis becomes the wing's active basis only when the wing has none yet.
+    """
     params = basis_params(samples, modes, mac_threshold, max_basis, seed)
     for row in store.list_bases(wing_id):
         if {k: row["params"].get(k) for k in params} == params:
@@ -81,7 +84,9 @@ def ensure_basis(
         basis = build_basis_for_wing(wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
                                      max_basis=max_basis, seed=seed)
     bid = store.save_basis(wing_id, basis, params)
-    log(f"basis {bid}: {basis.n_basis} shapes, worst sample MAC {basis.min_mac:.5f} ({time.perf_counter() - t0:.1f} s)")
+    active = activate_first_basis(store, wing_id, bid)
+    log(f"basis {bid}: {basis.n_basis} shapes, worst sample MAC {basis.min_mac:.5f} ({time.perf_counter() - t0:.1f} s)"
+        + (", now the wing's active basis" if active else ""))
     return int(bid), basis
 
 
@@ -166,52 +171,17 @@ def ensure_roms(
     return {m: out[float(m)] for m in sorted(out)}
 
 
-@dataclass
-class SweepChoice:
-    """Flutter sweep options chosen at the CLI/API edge."""
-
-    sweep: str = "constant-density"
-    altitude_ref_m: float = 10_000.0
-    rho_ref: float | None = None
-
-    def flutter_options(self) -> dict[str, Any]:
-        """Keyword arguments for romams_core.flutter.flutter_analysis."""
-        opts: dict[str, Any] = {"altitude_ref_m": self.altitude_ref_m}
-        if self.rho_ref is not None:
-            opts["rho_ref"] = self.rho_ref
-        return opts
-
-
-def flutter_pms(modal: Any, mesh: StandardMesh, machs: Sequence[float], ident: Mapping[str, Any],
-                sweep: SweepChoice, processes: int | None = None, roms: Sequence[Any] | None = None) -> list[Any]:
-    """ROM-PMS reference: train on the structure's own modes at each Mach, then the same flutter search."""
-    from romams_core.flutter import flutter_analysis
-
-    roms = list(roms) if roms is not None else train_shapes(mesh, modal.shapes, machs, ident, processes)
-    return [flutter_analysis(modal.omega, rom.ss, rom.c_ref, float(m), sweep=sweep.sweep,
-                             **sweep.flutter_options())
-            for m, rom in zip(machs, roms, strict=True)]
-
-
-def result_row(r: Any) -> dict[str, Any]:
-    """JSON row of one FlutterResult (keys of the CLI/API contract plus context)."""
-
-    def f(x: Any) -> float | None:
-        return None if x is None or not math.isfinite(float(x)) else float(x)
-
-    return {
-        "mach": float(r.mach),
-        "v_flutter_m_s": f(r.v_flutter_m_s),
-        "omega_flutter_rad_s": f(r.omega_flutter_rad_s),
-        "q_flutter_pa": f(r.q_flutter_pa),
-        "sdoff": bool(r.sdoff),
-        "flutter_mode": None if r.flutter_mode is None else int(r.flutter_mode),
-        "flutter_found": bool(r.flutter_found),
-        "frequency_hz": None if r.omega_flutter_rad_s is None else f(r.omega_flutter_rad_s / (2 * math.pi)),
-        "altitude_m": f(r.altitude_m),
-        "v_true_m_s": f(r.v_true_m_s),
-        "k_flutter": f(r.k_flutter),
-        "sweep": r.sweep,
-        "coupling": r.coupling,
-        "message": r.message,
-    }
+def cli_models(store: Any, wing_id: int, wing: WingDefinition, machs: Sequence[float], ident: Mapping[str, Any], *,
+               basis_id: int | None = None, samples: int = 25, modes: int = DEFAULT_N_MODES,
+               mac_threshold: float = DEFAULT_MAC_THRESHOLD, processes: int | None = None,
+               log: Log = _stderr) -> Models:
+    """Models of a local evaluation: the named or active basis (built and activated when the wing has none)
+    and one ROM per Mach with identity ``ident`` (trained when missing)."""
+    if basis_id is None and store.active_basis_id(wing_id) is None:
+        bid, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
+                                  log=log)
+    else:
+        bid = resolve_basis_id(store, wing_id, basis_id)
+        basis = store.load_basis(bid)
+    roms = ensure_roms(store, wing_id, wing, bid, basis, machs, ident=ident, processes=processes, log=log)
+    return Models(int(wing_id), wing, standard_mesh(wing.planform), int(bid), basis, roms)

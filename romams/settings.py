@@ -24,6 +24,10 @@ class Settings(BaseSettings):
     data_dir: Path = Field(default=Path(".romams"), description="directory for the SQLite db, broker and caches")
     database_url: str = Field(default="", description="SQLAlchemy URL; default sqlite:///<data_dir>/romams.db")
     broker_url: str = Field(default="", description="Celery broker; default sqla+sqlite:///<data_dir>/broker.db")
+    result_backend_url: str = Field(
+        default="", description="Celery result backend of synchronous evaluations; default: the Redis broker, "
+        "else db+sqlite:///<data_dir>/results.db")
+    result_expires_s: int = Field(default=3600, ge=60, description="how long a task result is kept by the backend")
     api_keys: Annotated[list[str], NoDecode] = Field(
         default_factory=list, description="bearer keys for mutating endpoints (comma separated); empty = no auth"
     )

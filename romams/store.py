@@ -329,6 +329,26 @@ class Store:
             bid = s.scalar(select(BasisRow.id).where(BasisRow.wing_id == int(wing_id)).order_by(BasisRow.id.desc()))
         return None if bid is None else int(bid)
 
+    def active_basis_id(self, wing_id: int) -> int | None:
+        """Id of the wing's active basis (None: none yet)."""
+        with self.session() as s:
+            bid = s.scalar(select(Wing.active_basis_id).where(Wing.id == int(wing_id)))
+        return None if bid is None else int(bid)
+
+    def set_active_basis(self, wing_id: int, basis_id: int) -> None:
+        """Make ``basis_id`` (a basis of this wing) the wing's active basis; KeyError if it is not the wing's."""
+        with self.session() as s:
+            owner = s.scalar(select(BasisRow.wing_id).where(BasisRow.id == int(basis_id)))
+            if owner != int(wing_id):
+                raise KeyError(f"basis {basis_id} is not a basis of wing {wing_id}")
+            s.execute(update(Wing).where(Wing.id == int(wing_id)).values(active_basis_id=int(basis_id)))
+
+    def basis_wing_id(self, basis_id: int) -> int | None:
+        """Id of the wing a basis belongs to (None: no such basis)."""
+        with self.session() as s:
+            wid = s.scalar(select(BasisRow.wing_id).where(BasisRow.id == int(basis_id)))
+        return None if wid is None else int(wid)
+
     def list_bases(self, wing_id: int) -> list[dict[str, Any]]:
         """Bases of a wing (newest first): id, params, n_basis, summary (MAC table etc.)."""
         with self.session() as s:

@@ -1,151 +1,78 @@
 """Flutter evaluation tasks (queue "evaluation"): one structure, or a chunk of a batch.
 
-A structure is either a design vector of the wing (modal analysis here) or stored external modes.
-Its modes are projected on the basis and every trained Mach's ROM is turned into modal coordinates
-and coupled with the structure by romams_core.evaluate. Loaded bases/ROMs stay in the worker's
-bounded cache; batch results are also cached by a content hash of (wing, basis, ROMs, design).
+Thin: a task loads the models by id through the worker's caches and calls the one evaluation use case
+(``romams.services.evaluation``), which the CLI and the demo call too. Batch results are also cached by
+a content hash of (wing, basis, ROMs, flight condition, design). A synchronous evaluation returns its
+outcome through the Celery result backend, so the API gets the answer without polling the database.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
-import numpy as np
-
-from romams.jobs import JobFailed, ProgressFn
-from romams.serialize import to_jsonable
+from romams.jobs import JobFailed, Outcome, ProgressFn
+from romams.services.evaluation import Models, evaluate_structure_summary, pms_summary, structure_modal
+from romams.services.flight import FlightCondition
+from romams.services.models import load_models
 from romams.store import content_hash
 from worker.cache import LruCache
 from worker.celery_app import app
-from worker.tasks import (
+from worker.context import (
     OBJECTS,
-    _run,
-    _settings,
     chunk_outcome,
     load_basis,
     load_mesh,
     load_rom,
     load_wing,
+    make_solver,
+    run,
+    settings,
     store,
 )
 
-RESULTS = LruCache(_settings.result_cache_size)  # content hash -> summary dict of one design
+RESULTS = LruCache(settings.result_cache_size)  # content hash -> summary dict of one design
 
 
-def _f(x: Any) -> float | None:
-    """Finite float or None."""
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
+def models_for(wing_id: int, basis_id: int, rom_ids: list[list[float]]) -> Models:
+    """The evaluation models from ids (wing, mesh, basis and ROMs come from the worker's cache)."""
+    return load_models(wing_id, load_wing(wing_id), basis_id, rom_ids, load_basis, load_rom, load_mesh)
 
 
-def structure_modal(wing_id: int, design: list[float] | None, modes_id: int | None, n_modes: int) -> Any:
-    """ModalResult of a design of the wing, or of stored external modes mapped to the standard mesh."""
-    if modes_id is not None:
-        from romams_core.modes_io import external_modal_result
-
-        modes = store().load_modes(int(modes_id))
-        return external_modal_result(modes, load_mesh(wing_id))
-    from romams_core.structure.modal import modal_analysis
-
-    wing = load_wing(wing_id)
-    if design is None:  # the baseline: one cached eigensolve, so that it compares with itself exactly
-        return OBJECTS.get_or_load(("baseline-modal", int(wing_id), int(n_modes)),
-                                   lambda: modal_analysis(wing, design=None, n_modes=n_modes))
-    return modal_analysis(wing, design=np.asarray(design, dtype=float), n_modes=n_modes)
-
-
-def _zeta(wing: Any) -> float | None:
-    """The wing's modal damping ratio for the flutter analysis (None = undamped), as the CLI applies it."""
-    z = float(getattr(wing, "modal_damping", 0.0) or 0.0)
-    return z if z > 0 else None
-
-
-def _roms(rom_ids: list[list[float]]) -> dict[float, Any]:
-    """{mach: TrainedRom} of the (mach, rom_id) pairs (cached)."""
-    return {float(m): load_rom(int(rid)) for m, rid in rom_ids}
-
-
-def baseline_evaluation(wing_id: int, basis_id: int, rom_ids: list[list[float]]) -> Any:
-    """StructureEvaluation of the wing's baseline structure on these ROMs (cached), or None without a baseline."""
-    from romams_core.evaluate import evaluate_structure
-
-    wing = load_wing(wing_id)
-    if not getattr(wing, "has_baseline", False):
-        return None
-
-    def load() -> Any:
-        basis = load_basis(basis_id)
-        modal = structure_modal(wing_id, None, None, int(basis.n_modes))
-        return evaluate_structure(modal, basis.shapes, _roms(rom_ids), mac_threshold=float(basis.mac_threshold),
-                                  zeta=_zeta(wing))
-
-    key = ("baseline", int(wing_id), int(basis_id), tuple((float(m), int(r)) for m, r in rom_ids))
-    return OBJECTS.get_or_load(key, load)
+def condition_of(params: dict[str, Any]) -> FlightCondition:
+    """The flight condition stored with a job's parameters (default when absent)."""
+    return FlightCondition.from_options(**dict(params.get("condition") or {}))
 
 
 def evaluate(wing_id: int, basis_id: int, rom_ids: list[list[float]], design: list[float] | None,
-             modes_id: int | None = None) -> tuple[dict[str, Any], Any]:
-    """Evaluate one structure at the given (mach, rom_id) pairs -> (API summary, StructureEvaluation).
-
-    The envelope is compared with the wing's baseline evaluated on the same ROMs (when it has one).
-    """
-    from romams_core.evaluate import evaluate_structure
-
-    basis = load_basis(basis_id)
-    modal = structure_modal(wing_id, design, modes_id, int(basis.n_modes))
-    base = baseline_evaluation(wing_id, basis_id, rom_ids)
-    result = evaluate_structure(modal, basis.shapes, _roms(rom_ids), mac_threshold=float(basis.mac_threshold),
-                                benchmark=None if base is None else base.envelope, zeta=_zeta(load_wing(wing_id)))
-    return summarize(result, external=modes_id is not None), result
+             modes_id: int | None = None, condition: FlightCondition | None = None) -> tuple[dict[str, Any], Any]:
+    """Evaluate one structure with the use case -> (JSON summary, StructureEvaluation)."""
+    models = models_for(wing_id, basis_id, rom_ids)
+    modes = None if modes_id is None else store().load_modes(int(modes_id))
+    return evaluate_structure_summary(models, design=design, modes=modes, condition=condition or FlightCondition(),
+                                      cache=OBJECTS.get_or_load)
 
 
-def summarize(result: Any, external: bool = False) -> dict[str, Any]:
-    """The API's JSON view of a StructureEvaluation: mass, frequencies, MACs, per-Mach flutter points, envelope."""
-    env = result.envelope
-    env_machs = np.asarray(env.mach, dtype=float)
-    per_mach = []
-    for r in result.flutter:
-        idx = np.flatnonzero(np.isclose(env_machs, float(r.mach), rtol=0, atol=1e-9))
-        per_mach.append({
-            "mach": _f(r.mach), "v_flutter_m_s": _f(r.v_flutter_m_s), "omega_flutter_rad_s": _f(r.omega_flutter_rad_s),
-            "q_flutter_pa": _f(r.q_flutter_pa), "sdoff": bool(r.sdoff), "flutter_mode": r.flutter_mode,
-            "flutter_found": bool(r.flutter_found), "sweep": r.sweep, "message": r.message,
-            "safe_altitude_m": _f(env.safe_altitude_m[idx[0]]) if idx.size else None,
-            "envelope_status": env.status[idx[0]] if idx.size else None,
-        })
-    mass = _f(result.mass_kg)
-    comp = result.comparison
-    return to_jsonable({
-        "mass_kg": None if external and not (mass and mass > 0) else mass,
-        "frequencies_hz": np.asarray(result.frequencies_hz, dtype=float),
-        "mac": np.asarray(result.mac, dtype=float),
-        "min_mac": _f(result.min_mac),
-        "mac_ok": bool(result.mac_ok),
-        "sdoff": bool(result.sdoff),
-        "results": per_mach,
-        "envelope_ok": None if comp is None else bool(comp.envelope_ok),
-        "envelope_margin_m": None if comp is None else np.asarray(comp.margin_m, dtype=float),
-        "constraints_ok": bool(result.constraints_ok),
-        "message": result.message,
-    })
+def batch_key(wing_id: int, params: dict[str, Any], design: Any) -> str:
+    """Content hash of one design's evaluation (identical inputs -> identical summary)."""
+    return content_hash("flutter", wing_id, params["basis_id"], params["rom_ids"], params.get("condition") or {},
+                        design)
 
 
-@app.task(name="romams.evaluation.flutter", acks_late=True, time_limit=_settings.evaluation_time_limit_s)
-def flutter_job(job_id: str) -> None:
-    """One structure: evaluate, store the evaluation (V-g data) and put the summary in the job result."""
+@app.task(name="romams.evaluation.flutter", acks_late=True, ignore_result=False,
+          time_limit=settings.evaluation_time_limit_s)
+def flutter_job(job_id: str) -> dict[str, Any]:
+    """One structure: evaluate, store the evaluation (V-g data); the outcome also goes to the result backend."""
 
     def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
         p = job["params"]
         keep = bool(p.get("store", True))
         h = None
         if p.get("modes_id") is None:  # same key as the batch chunks: a design seen before is answered from memory
-            h = content_hash("flutter", job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"))
+            h = batch_key(job["wing_id"], p, p.get("design"))
             if not keep and (hit := RESULTS.get(h)) is not None and "error" not in hit:
                 return dict(hit)
-        summary, result = evaluate(job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"), p.get("modes_id"))
+        summary, result = evaluate(job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"), p.get("modes_id"),
+                                   condition_of(p))
         if h is not None:
             RESULTS.put(h, dict(summary))
         if keep:
@@ -154,55 +81,51 @@ def flutter_job(job_id: str) -> None:
                 method=p.get("method", "rom-ams"), content_hash=p.get("content_hash"))
         return summary
 
-    _run(job_id, body)
+    return run(job_id, body).as_dict()
 
 
 def evaluate_pms(wing_id: int, basis_id: int, rom_ids: list[list[float]], design: list[float] | None,
-                 modes_id: int | None, progress: ProgressFn) -> tuple[dict[str, Any], Any]:
+                 modes_id: int | None, progress: ProgressFn,
+                 condition: FlightCondition | None = None) -> tuple[dict[str, Any], Any]:
     """ROM-PMS reference: train on the structure's own modes at each Mach with the stored ROMs' settings."""
-    from romams_core.evaluate import evaluate_structure
     from romams_core.training import TrainingError, train_rom
-    from worker.tasks import make_solver
 
-    basis = load_basis(basis_id)
-    modal = structure_modal(wing_id, design, modes_id, int(basis.n_modes))
+    condition = condition or FlightCondition()
+    models = models_for(wing_id, basis_id, rom_ids)
+    modes = None if modes_id is None else store().load_modes(int(modes_id))
+    modal = structure_modal(models, design, modes)
     rows = {int(r["id"]): r for r in store().list_roms(wing_id, basis_id)}
-    own: dict[float, Any] = {}
+    own: dict[float, tuple[int, Any]] = {}
     for i, (mach, rid) in enumerate(rom_ids):
         ident = rows[int(rid)]["params"]
         progress(i / len(rom_ids), f"ROM-PMS: training M = {mach:g} on the structure's own modes")
         try:
-            own[float(mach)] = train_rom(load_mesh(wing_id), modal.shapes, float(mach), make_solver(ident["solver"]),
-                                         na=int(ident["na"]), nb=int(ident["nb"]), **dict(ident.get("options") or {}))
+            own[float(mach)] = (int(rid), train_rom(models.mesh, modal.shapes, float(mach),
+                                                    make_solver(ident["solver"]), na=int(ident["na"]),
+                                                    nb=int(ident["nb"]), **dict(ident.get("options") or {})))
         except TrainingError as exc:
             raise JobFailed(f"ROM-PMS training at M = {mach:g} failed: {exc}") from exc
-    base = baseline_evaluation(wing_id, basis_id, rom_ids)
-    # the structure's own modes are the "basis": gamma = I, MAC = 1
-    result = evaluate_structure(modal, modal.shapes, own, benchmark=None if base is None else base.envelope,
-                                zeta=_zeta(load_wing(wing_id)))
-    summary = summarize(result, external=modes_id is not None)
-    summary["method"] = "rom-pms"
-    return summary, result
+    return pms_summary(models, modal, own, condition, external=modes_id is not None, cache=OBJECTS.get_or_load)
 
 
-@app.task(name="romams.training.flutter_pms", acks_late=True, time_limit=_settings.training_time_limit_s)
+@app.task(name="romams.training.flutter_pms", acks_late=True, time_limit=settings.training_time_limit_s)
 def flutter_pms_job(job_id: str) -> None:
     """One structure by ROM-PMS (the accuracy reference): train on its own modes, evaluate, store."""
 
     def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
         p = job["params"]
         summary, result = evaluate_pms(job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"),
-                                       p.get("modes_id"), progress)
+                                       p.get("modes_id"), progress, condition_of(p))
         if p.get("store", True):
             summary["evaluation_id"] = store().save_evaluation(
                 job["wing_id"], result, summary=summary, request=p.get("request") or {}, basis_id=p["basis_id"],
                 method="rom-pms")
         return summary
 
-    _run(job_id, body)
+    run(job_id, body)
 
 
-@app.task(name="romams.evaluation.flutter_chunk", acks_late=True, time_limit=_settings.evaluation_time_limit_s)
+@app.task(name="romams.evaluation.flutter_chunk", acks_late=True, time_limit=settings.evaluation_time_limit_s)
 def flutter_chunk(job_id: str) -> None:
     """A chunk of a batch: summaries of each design (cached by content hash); the last chunk assembles the batch."""
 
@@ -210,12 +133,13 @@ def flutter_chunk(job_id: str) -> None:
         p = job["params"]
         out = []
         designs = p["designs"]
+        condition = condition_of(p)
         for i, d in enumerate(designs):
-            h = content_hash("flutter", job["wing_id"], p["basis_id"], p["rom_ids"], d)
+            h = batch_key(job["wing_id"], p, d)
             summary = RESULTS.get(h)
             if summary is None:
                 try:
-                    summary, _ = evaluate(job["wing_id"], p["basis_id"], p["rom_ids"], d)
+                    summary, _ = evaluate(job["wing_id"], p["basis_id"], p["rom_ids"], d, None, condition)
                 except ValueError as exc:  # a design the structure model rejects: reported per design
                     summary = {"error": str(exc)}
                 RESULTS.put(h, summary)
@@ -224,7 +148,7 @@ def flutter_chunk(job_id: str) -> None:
                 progress((i + 1) / len(designs), f"{i + 1}/{len(designs)} designs")
         return {"index": p["index"], "results": out}
 
-    _run(job_id, body)
+    run(job_id, body)
     job = store().get_job(job_id)
     if job and job["parent_id"] and job["status"] in ("succeeded", "failed"):
         assemble_batch(job["parent_id"])
@@ -246,7 +170,7 @@ def assemble_batch(parent_id: str) -> None:
         s.finish_job(parent_id, "succeeded", result={"results": results, "n": len(results)}, message="done")
 
 
-@app.task(name="romams.evaluation.batch_finalize", acks_late=True, time_limit=_settings.evaluation_time_limit_s)
+@app.task(name="romams.evaluation.batch_finalize", acks_late=True, time_limit=settings.evaluation_time_limit_s)
 def batch_finalize(job_id: str) -> None:
     """Re-run the batch assembly (sent by the stale-job sweeper if the assembling worker died)."""
     s = store()
@@ -254,5 +178,5 @@ def batch_finalize(job_id: str) -> None:
         assemble_batch(job_id)
 
 
-__all__ = ["JobFailed", "assemble_batch", "evaluate", "evaluate_pms", "flutter_chunk", "flutter_job",
-           "flutter_pms_job", "summarize"]
+__all__ = ["JobFailed", "Outcome", "assemble_batch", "evaluate", "evaluate_pms", "flutter_chunk", "flutter_job",
+           "flutter_pms_job"]

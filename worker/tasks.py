@@ -1,9 +1,10 @@
 """Celery tasks: thin wrappers that load inputs from the store, call romams_core and persist results.
 
 Every task takes one job id; the job row (romams.store) carries the parameters, progress and outcome.
-Basis jobs fan out: the parent samples the design space and creates chunk jobs of modal analyses
-(spread over the workers); the chunk that completes last claims the parent's "finalize" stage and
-sends the SVD task. Flutter batches fan out in chunks the same way.
+This module holds the training-queue tasks; the flutter evaluations are in ``worker.evaluation``.
+Basis jobs fan out: the parent samples the design space and creates chunk jobs of modal analyses (spread
+over the workers); the chunk that completes last claims the parent's "finalize" stage and sends the SVD
+task. The first basis of a wing becomes its active basis; a later one only when activated explicitly.
 """
 
 from __future__ import annotations
@@ -12,61 +13,10 @@ from typing import Any
 
 import numpy as np
 
-from romams.jobs import JobFailed, ProgressFn, run_job, send
-from romams.settings import get_settings
-from romams.store import Store, open_store
-from worker.cache import LruCache
+from romams.jobs import JobFailed, ProgressFn, send
+from romams.services.models import activate_first_basis
 from worker.celery_app import app
-
-_STORE: list[Store] = []
-_settings = get_settings()
-OBJECTS = LruCache(_settings.cache_size)  # (kind, id) -> wing / basis / ROM / mesh
-
-
-def store() -> Store:
-    """This process's store (opened on first use, after any fork)."""
-    if not _STORE:
-        _STORE.append(open_store(_settings))
-    return _STORE[0]
-
-
-def reset_process_state() -> None:
-    """Forget the store handle (a forked pool process opens its own)."""
-    _STORE.clear()
-
-
-def _run(job_id: str, body: Any, **kw: Any) -> Any:
-    """run_job with this worker's settings."""
-    return run_job(store(), job_id, body, max_deliveries=_settings.max_deliveries,
-                   heartbeat_s=_settings.heartbeat_s, **kw)
-
-
-# ---- cached loaders ------------------------------------------------------------------------------
-def load_wing(wing_id: int) -> Any:
-    """WingDefinition of a stored wing (cached)."""
-    def load() -> Any:
-        found = store().find_wing(int(wing_id))
-        if found is None:
-            raise JobFailed(f"wing {wing_id} not found")
-        return found[1]
-    return OBJECTS.get_or_load(("wing", int(wing_id)), load)
-
-
-def load_mesh(wing_id: int) -> Any:
-    """Standard mesh of a stored wing (cached)."""
-    from romams_core.mesh import standard_mesh
-
-    return OBJECTS.get_or_load(("mesh", int(wing_id)), lambda: standard_mesh(load_wing(wing_id).planform))
-
-
-def load_basis(basis_id: int) -> Any:
-    """Basis by id (cached)."""
-    return OBJECTS.get_or_load(("basis", int(basis_id)), lambda: store().load_basis(int(basis_id)))
-
-
-def load_rom(rom_id: int) -> Any:
-    """TrainedRom by id (cached; a ROM row never changes, a retrained one gets a new id)."""
-    return OBJECTS.get_or_load(("rom", int(rom_id)), lambda: store().load_rom(int(rom_id)))
+from worker.context import chunk_outcome, load_basis, load_mesh, load_wing, make_solver, run, settings, store
 
 
 # ---- basis ---------------------------------------------------------------------------------------
@@ -75,7 +25,7 @@ def _chunks(n: int, size: int) -> list[range]:
     return [range(i, min(i + size, n)) for i in range(0, n, size)]
 
 
-@app.task(name="romams.training.basis", acks_late=True, time_limit=_settings.training_time_limit_s)
+@app.task(name="romams.training.basis", acks_late=True, time_limit=settings.training_time_limit_s)
 def basis_job(job_id: str) -> None:
     """Basis job: LHS sample of the design space, then chunks of modal analyses fanned out to workers."""
     from romams_core.basis import sample_designs
@@ -87,7 +37,7 @@ def basis_job(job_id: str) -> None:
         s = store()
         children = s.children(job_id)
         if not children:
-            for idx, r in enumerate(_chunks(len(designs), _settings.basis_chunk)):
+            for idx, r in enumerate(_chunks(len(designs), settings.basis_chunk)):
                 s.create_job("basis-chunk", {"index": idx, "designs": designs[r.start:r.stop].tolist(),
                                              "modes": int(p["modes"])},
                              wing_id=job["wing_id"], parent_id=job_id)
@@ -98,21 +48,7 @@ def basis_job(job_id: str) -> None:
             if c["status"] == "queued":
                 send(app, "romams.training.basis_chunk", c["id"], s)
 
-    _run(job_id, body, finish=False)
-
-
-def chunk_outcome(s: Store, parent_id: str) -> list[dict[str, Any]] | None:
-    """The chunks of a fan-out parent, or None after ending the parent because a chunk was cancelled or failed."""
-    kids = s.children(parent_id)
-    if any(k["status"] == "cancelled" for k in kids):
-        s.finish_job(parent_id, "cancelled", message="a chunk was cancelled")
-        return None
-    failed = [k for k in kids if k["status"] == "failed"]
-    if failed:
-        first = failed[0]
-        s.finish_job(parent_id, "failed", error=f"chunk {first['params'].get('index')} failed: {first['error']}")
-        return None
-    return kids
+    run(job_id, body, finish=False)
 
 
 def _after_chunk(parent_id: str, finalize_task: str, lo: float, hi: float) -> None:
@@ -127,7 +63,7 @@ def _after_chunk(parent_id: str, finalize_task: str, lo: float, hi: float) -> No
         app.send_task(finalize_task, args=[parent_id])
 
 
-@app.task(name="romams.training.basis_chunk", acks_late=True, time_limit=_settings.training_time_limit_s)
+@app.task(name="romams.training.basis_chunk", acks_late=True, time_limit=settings.training_time_limit_s)
 def basis_chunk(job_id: str) -> None:
     """Modal analyses of one chunk of sample designs; snapshots stored as an artifact."""
     from romams_core.basis import snapshot
@@ -143,13 +79,13 @@ def basis_chunk(job_id: str) -> None:
         store().save_artifact(job_id, "snapshots", np.hstack(snaps))
         return {"n_designs": len(designs)}
 
-    _run(job_id, body)
+    run(job_id, body)
     job = store().get_job(job_id)
     if job and job["parent_id"] and job["status"] in ("succeeded", "failed"):
         _after_chunk(job["parent_id"], "romams.training.basis_finalize", 0.05, 0.9)
 
 
-@app.task(name="romams.training.basis_finalize", acks_late=True, time_limit=_settings.training_time_limit_s)
+@app.task(name="romams.training.basis_finalize", acks_late=True, time_limit=settings.training_time_limit_s)
 def basis_finalize(job_id: str) -> None:
     """SVD of all chunk snapshots -> Basis, stored; the parent job succeeds with its summary."""
     from romams_core.basis import build_basis
@@ -166,24 +102,15 @@ def basis_finalize(job_id: str) -> None:
                             n_modes=int(p["modes"]), designs=designs, design_names=list(wing.variable_names),
                             wing_name=wing.name)
         bid = s.save_basis(job["wing_id"], basis, p, job_id=job_id)
-        return {"basis_id": bid, "n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac),
+        active = activate_first_basis(s, int(job["wing_id"]), bid)
+        return {"basis_id": bid, "active": active, "n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac),
                 "capped": bool(basis.capped), "min_mac_by_m": basis.min_mac_by_m.tolist()}
 
-    _run(job_id, body, count_delivery=False)
+    run(job_id, body, count_delivery=False)
 
 
 # ---- training ------------------------------------------------------------------------------------
-def make_solver(name: str) -> Any:
-    """Unsteady solver instance by name (romams.pipeline.make_solver); an unknown one fails the job."""
-    from romams.pipeline import make_solver as _make
-
-    try:
-        return _make(name)
-    except ValueError as exc:
-        raise JobFailed(str(exc)) from exc
-
-
-@app.task(name="romams.training.rom", acks_late=True, time_limit=_settings.training_time_limit_s)
+@app.task(name="romams.training.rom", acks_late=True, time_limit=settings.training_time_limit_s)
 def training_job(job_id: str) -> None:
     """Train the aerodynamic ROM of one Mach number on the basis shapes and store it."""
     from romams_core.training import TrainingError, train_rom
@@ -204,7 +131,4 @@ def training_job(job_id: str) -> None:
         nrmse = np.atleast_1d(np.asarray(getattr(rom, "validation_nrmse", np.nan), dtype=float))
         return {"rom_id": rid, "mach": float(p["mach"]), "validation_nrmse": nrmse.tolist()}
 
-    _run(job_id, body)
-
-
-from worker import evaluation as _evaluation  # noqa: E402,F401  (registers the evaluation tasks)
+    run(job_id, body)

@@ -11,9 +11,13 @@ from fastapi import APIRouter, Depends, Query, Response
 
 from api.deps import Service, require_key, service, wing_or_404
 from api.problems import Problem, from_value_error, invalid
-from api.schemas import BatchRequest, FlutterRequest
+from api.schemas import BatchRequest, FlutterRequest, FlutterSummary
 from romams import jobs
 from romams.serialize import to_jsonable
+from romams.services.errors import ServiceError
+from romams.services.flight import FlightCondition
+from romams.services.models import resolve_basis_id, trained_rom_ids
+from romams.services.queue import TASK_FOR_KIND
 from romams.store import content_hash
 
 router = APIRouter(tags=["flutter"])
@@ -21,29 +25,15 @@ router = APIRouter(tags=["flutter"])
 
 def _basis_and_roms(svc: Service, wid: int, basis_id: int | None, machs: list[float] | None,
                     field: str = "machs") -> tuple[int, list[list[float]]]:
-    """Basis id and [(mach, rom_id)] to evaluate; 409/404/422 naming the field when not available."""
-    bid = basis_id if basis_id is not None else svc.store.latest_basis_id(wid)
-    if bid is None:
-        raise Problem(409, "basis_id: the wing has no basis yet; POST /api/v1/wings/{id}/basis first", "basis_id")
-    roms = svc.store.list_roms(wid, bid)
-    if basis_id is not None and not roms and bid not in {b["id"] for b in svc.store.list_bases(wid)}:
-        raise Problem(404, f"basis_id: basis {bid} does not belong to wing {wid}", "basis_id")
-    trained: dict[float, int] = {}
-    for r in sorted(roms, key=lambda r: r["id"]):  # newest ROM of each Mach wins
-        trained[round(float(r["mach"]), 6)] = int(r["id"])
-    if not trained:
-        raise Problem(409, f"{field}: no ROM is trained for basis {bid}; POST /api/v1/wings/{wid}/roms first", field)
-    if machs is None:
-        return bid, [[m, trained[m]] for m in sorted(trained)]
-    out = []
-    for i, m in enumerate(machs):
-        key = round(float(m), 6)
-        if key not in trained:
-            raise invalid(f"{field}[{i}]", f"Mach {m} is not trained for basis {bid}; trained: {sorted(trained)}")
-        out.append([key, trained[key]])
-    if len({m for m, _ in out}) != len(out):
-        raise invalid(field, "contains duplicates")
-    return bid, out
+    """Basis id (the wing's active one unless the request names one) and [(mach, rom_id)] to evaluate."""
+    bid = resolve_basis_id(svc.store, wid, basis_id)
+    return bid, trained_rom_ids(svc.store, wid, bid, machs, field)
+
+
+def _condition(body: FlutterRequest | BatchRequest) -> FlightCondition:
+    """The flight condition of a request (defaults where a field is absent)."""
+    return FlightCondition.from_options(sweep=body.sweep, altitude_ref_m=body.altitude_ref_m, rho_ref=body.rho_ref,
+                                        v_max_m_s=body.v_max_m_s, q_max_pa=body.q_max_pa)
 
 
 def _design_vector(wing: Any, design: Any, field: str) -> list[float] | None:
@@ -85,19 +75,25 @@ def _inline_modes(svc: Service, wing: Any, modes: dict[str, Any]) -> int:
 
 
 def _wait(svc: Service, job_id: str, timeout_s: float) -> dict[str, Any] | None:
-    """Wait for a job's final state (None on timeout)."""
+    """Wait for a batch job's final state (None on timeout)."""
     return jobs.wait_for(svc.store, job_id, timeout_s)
 
 
-def _failed(job: dict[str, Any]) -> Problem:
-    """Problem for a failed evaluation job (input was validated: a server-side failure)."""
-    err = (job.get("error") or "evaluation failed").splitlines()[0]
-    if err.startswith("ValueError: "):
-        return Problem(422, err.removeprefix("ValueError: "), extra={"job_id": job["id"]})
-    return Problem(500, f"evaluation failed: {err}", extra={"job_id": job["id"]})
+def _failed(job: dict[str, Any]) -> ServiceError:
+    """The typed error of a failed job (stored structured by the worker; input was validated: else a 500)."""
+    err = (job.get("result") or {}).get("error") if isinstance(job.get("result"), dict) else None
+    if err is None:
+        text = (job.get("error") or "evaluation failed").splitlines()[0]
+        err = {"status": 500, "field": None, "reason": f"evaluation failed: {text}"}
+    out = ServiceError.from_dict(err)
+    out.extra["job_id"] = job["id"]
+    return out
 
 
-@router.post("/wings/{wing}/flutter", dependencies=[Depends(require_key)])
+@router.post("/wings/{wing}/flutter", dependencies=[Depends(require_key)],
+             responses={200: {"model": FlutterSummary, "description": "the evaluation (v_flutter_m_s is the true "
+                                                                      "airspeed; v_eas_m_s the equivalent one)"},
+                        202: {"description": "not finished within sync_timeout_s: {job_id, status}"}})
 def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Flutter evaluation of one structure at the trained (or given) Mach numbers; synchronous."""
     wid, w = wing_or_404(svc, wing)
@@ -114,27 +110,35 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
     else:
         design = _design_vector(w, body.design, "design")
     request = body.model_dump(exclude={"modes"})
-    h = content_hash("flutter", wid, bid, rom_ids, design) if modes_id is None and body.method == "rom-ams" else None
+    condition = _condition(body).to_json()
+    h = (content_hash("flutter", wid, bid, rom_ids, condition, design)
+         if modes_id is None and body.method == "rom-ams" else None)
     if h is not None and body.store:
         cached = svc.store.find_evaluation(h)
         if cached is not None:
             return {**cached["summary"], "evaluation_id": cached["id"], "cached": True}
     params = {"basis_id": bid, "rom_ids": rom_ids, "design": design, "modes_id": modes_id, "store": body.store,
-              "request": request, "method": body.method, "content_hash": h}
+              "request": request, "method": body.method, "content_hash": h, "condition": condition}
     if body.method == "rom-pms":  # trains one ROM per Mach on the structure's own modes: a training job
         job_id = jobs.submit(svc.store, svc.celery, "flutter-pms", params, wing_id=wid)
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{job_id}"
         return {"job_id": job_id, "status": "queued"}
     job_id = jobs.submit(svc.store, svc.celery, "flutter", params, wing_id=wid)
-    job = _wait(svc, job_id, svc.settings.sync_timeout_s)
-    if job is None:
+    out = jobs.wait_result(svc.celery, job_id, svc.settings.sync_timeout_s)
+    if out is not None and out.get("status") is None:  # not run by this delivery (e.g. redelivered): the row knows
+        out = None
+        job = svc.store.get_job(job_id)
+        if job is not None and job["status"] in ("succeeded", "failed", "cancelled"):
+            out = {"status": job["status"], "result": job["result"], "error": (job["result"] or {}).get("error")
+                   if job["status"] == "failed" and isinstance(job["result"], dict) else None}
+    if out is None:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{job_id}"
         return {"job_id": job_id, "status": "queued"}
-    if job["status"] != "succeeded":
-        raise _failed(job)
-    return {**job["result"], "job_id": job_id}
+    if out["status"] != "succeeded":
+        raise _failed({"id": job_id, "result": {"error": out.get("error")}, "error": out["status"]})
+    return {**out["result"], "job_id": job_id}
 
 
 @router.post("/wings/{wing}/flutter/batch", dependencies=[Depends(require_key)])
@@ -147,15 +151,17 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
     bid, rom_ids = _basis_and_roms(svc, wid, body.basis_id, body.machs)
     vectors = [_design_vector(w, d, f"designs[{i}]") for i, d in enumerate(body.designs)]
     chunk = max(1, min(svc.settings.batch_chunk, math.ceil(n / 4)))
-    params = {"basis_id": bid, "rom_ids": rom_ids, "n": n, "method": body.method}
+    condition = _condition(body).to_json()
+    params = {"basis_id": bid, "rom_ids": rom_ids, "n": n, "method": body.method, "condition": condition}
     parent = svc.store.create_job("flutter-batch", params, wing_id=wid, stage="fanout",
                                   message=f"{n} designs in {math.ceil(n / chunk)} chunks")
     kids = [svc.store.create_job("flutter-chunk", {"basis_id": bid, "rom_ids": rom_ids, "index": k,
-                                                   "designs": vectors[i:i + chunk]}, wing_id=wid, parent_id=parent)
+                                                   "condition": condition, "designs": vectors[i:i + chunk]},
+                                 wing_id=wid, parent_id=parent)
             for k, i in enumerate(range(0, n, chunk))]
     try:
         for k in kids:
-            jobs.send(svc.celery, jobs.TASK_FOR_KIND["flutter-chunk"], k, svc.store)
+            jobs.send(svc.celery, TASK_FOR_KIND["flutter-chunk"], k, svc.store)
     except jobs.BrokerUnavailable:
         svc.store.cancel_job(parent)
         raise

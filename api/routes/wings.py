@@ -11,8 +11,9 @@ from fastapi import APIRouter, Depends, Response
 
 from api.deps import Service, require_key, service, wing_or_404
 from api.problems import Problem, from_value_error, invalid
-from api.schemas import BasisRequest, Created, JobRef, RomRequest, WingCreate
+from api.schemas import ActiveBasis, BasisRequest, Created, JobRef, RomRequest, WingCreate
 from romams.jobs import submit
+from romams.services.models import resolve_basis_id
 from romams.store import content_hash, rom_key
 
 router = APIRouter(tags=["wings"])
@@ -28,7 +29,7 @@ def wing_view(wid: int, wing: Any, svc: Service) -> dict[str, Any]:
            for v in getattr(wing, "design_variables", ())]
     return {"id": wid, "name": info.get("name"), "created_at": info.get("created_at"),
             "design_variables": dvs, "has_baseline": bool(getattr(wing, "has_baseline", False)),
-            "latest_basis_id": svc.store.latest_basis_id(wid),
+            "latest_basis_id": svc.store.latest_basis_id(wid), "active_basis_id": svc.store.active_basis_id(wid),
             "trained_machs": sorted({r["mach"] for r in svc.store.list_roms(wid)}),
             "definition": info.get("definition", {}).get("data")}
 
@@ -65,6 +66,7 @@ def list_wings(svc: Service = Depends(service)) -> list[dict[str, Any]]:
     out = []
     for w in svc.store.list_wings():
         w["latest_basis_id"] = svc.store.latest_basis_id(w["id"])
+        w["active_basis_id"] = svc.store.active_basis_id(w["id"])
         w["trained_machs"] = sorted({r["mach"] for r in svc.store.list_roms(w["id"])})
         out.append(w)
     return out
@@ -95,6 +97,15 @@ def start_basis(wing: str, body: BasisRequest, response: Response, svc: Service 
         response.status_code = 200
         return {"job_id": active["id"], "existing": True}
     return {"job_id": submit(svc.store, svc.celery, "basis", params, wing_id=wid, key=key)}
+
+
+@router.put("/wings/{wing}/active-basis", dependencies=[Depends(require_key)])
+def set_active_basis(wing: str, body: ActiveBasis, svc: Service = Depends(service)) -> dict[str, Any]:
+    """Make one of the wing's bases the active one (what evaluations and trainings use unless told otherwise)."""
+    wid, _ = wing_or_404(svc, wing)
+    bid = resolve_basis_id(svc.store, wid, body.basis_id)
+    svc.store.set_active_basis(wid, bid)
+    return {"wing_id": wid, "active_basis_id": bid}
 
 
 @router.get("/wings/{wing}/bases")
@@ -135,11 +146,7 @@ def _train_options(options: dict[str, Any]) -> dict[str, Any]:
 def start_training(wing: str, body: RomRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Train ROMs: one job per Mach; an identical request returns the existing model or the running job."""
     wid, _ = wing_or_404(svc, wing)
-    basis_id = body.basis_id if body.basis_id is not None else svc.store.latest_basis_id(wid)
-    if basis_id is None:
-        raise Problem(409, "basis_id: the wing has no basis yet; POST /api/v1/wings/{id}/basis first", "basis_id")
-    if body.basis_id is not None and basis_id not in {b["id"] for b in svc.store.list_bases(wid)}:
-        raise Problem(404, f"basis_id: basis {basis_id} does not belong to wing {wid}", "basis_id")
+    basis_id = resolve_basis_id(svc.store, wid, body.basis_id)
     if body.solver == "uvlm":
         bad = [m for m in ([body.mach] if body.mach is not None else body.machs or []) if m >= 1.0]
         if bad:
@@ -195,11 +202,7 @@ def _basis_or_404(svc: Service, basis_id: int) -> Any:
 
 def _basis_wing(svc: Service, basis_id: int) -> Any:
     """WingDefinition the basis belongs to."""
-    from romams.db import BasisRow
-
-    with svc.store.session() as s:
-        row = s.get(BasisRow, basis_id)
-        wid = None if row is None else row.wing_id
+    wid = svc.store.basis_wing_id(basis_id)
     if wid is None:
         raise Problem(404, f"basis_id: no basis {basis_id}", "basis_id")
     return wing_or_404(svc, str(wid))[1]

@@ -13,17 +13,9 @@ import numpy as np
 import typer
 
 from romams.cli.app import app
-from romams.pipeline import (
-    PAPER_MACHS,
-    SweepChoice,
-    ensure_basis,
-    ensure_roms,
-    flutter_pms,
-    resolve_wing,
-    result_row,
-    rom_identity,
-    train_shapes,
-)
+from romams.pipeline import PAPER_MACHS, ensure_basis, ensure_roms, resolve_wing, rom_identity, train_shapes
+from romams.services.evaluation import Models, evaluate, pms_summary, result_row
+from romams.services.flight import DEFAULT_CONDITION
 
 #: Two contrasting designs of the cropped delta wing (like the paper's var1 and var2): var1 has a beam far
 #: aft, a heavy outboard leading-edge mass and a thin plate (its flutter boundary drops below the
@@ -104,7 +96,6 @@ def demo_command(
     """Run the ROM-AMS pipeline on the cropped delta wing and write DIR/summary.json plus plots."""
     from romams.store import open_store
     from romams_core.basis import project
-    from romams_core.evaluate import evaluate_structure
     from romams_core.mesh import standard_mesh
     from romams_core.structure.modal import modal_analysis
 
@@ -113,7 +104,7 @@ def demo_command(
     procs = processes or os.cpu_count() or 1
     samples = 12 if quick else 25
     ident = rom_identity("uvlm", 8, 8)
-    sweep = SweepChoice("constant-speed")  # the paper's parametrization: V = M a(10 km), q swept
+    condition = DEFAULT_CONDITION  # the service's default: constant speed V = M a(10 km), q swept (the paper's)
     machs = list(PAPER_MACHS)
     timings: dict[str, Any] = {}
     store = open_store()
@@ -139,15 +130,11 @@ def demo_command(
     roms = ensure_roms(store, wing_id, wing, basis_id, basis, machs, ident=ident, processes=procs, log=log)
     timings["training_wall_s"] = time.perf_counter() - t
     timings["training_per_mach_s"] = float(np.mean([r.train_seconds for _, r in roms.values()]))
-    rom_objs = {m: r for m, (_, r) in roms.items()}
+    models = Models(wing_id, wing, mesh, basis_id, basis, roms)
     for m, (rid, r) in roms.items():
         log(f"M = {m:.2f}: rom {rid}, {r.ss.A.shape[0]} states, validation NRMSE max {np.max(r.validation_nrmse):.2e}")
 
-    def evaluate(modal: Any, benchmark: Any = None) -> Any:
-        return evaluate_structure(modal, basis.shapes, rom_objs, sweep=sweep.sweep, benchmark=benchmark,
-                                  zeta=wing.modal_damping, flutter_options=sweep.flutter_options())
-
-    baseline_eval = evaluate(base)
+    baseline_eval = evaluate(models, base, condition)
     log("benchmark envelope (baseline): " + ", ".join(
         f"M {m:.2f}: {h:.0f} m" for m, h in zip(baseline_eval.envelope.mach, baseline_eval.envelope.safe_altitude_m,
                                                 strict=True)))
@@ -157,24 +144,26 @@ def demo_command(
     design_evals = {}
     for name, design in DEMO_DESIGNS.items():
         modal = modal_analysis(wing, design, 4, mesh)
-        ev = evaluate(modal, baseline_eval.envelope)
+        ev = evaluate(models, modal, condition, benchmark=baseline_eval.envelope)
         design_evals[name] = ev
         t = time.perf_counter()
         pms_roms = train_shapes(mesh, modal.shapes, machs, ident, procs)
-        pms = flutter_pms(modal, mesh, machs, ident, SweepChoice(sweep.sweep), roms=pms_roms)
+        pms, _ = pms_summary(models, modal, {m: (0, r) for m, r in zip(machs, pms_roms, strict=True)}, condition)
         timings.setdefault("rom_pms_training_s", []).append(time.perf_counter() - t)
         rows = []
-        for ams, ref in zip(ev.flutter, pms, strict=True):
+        for ams, ref in zip(ev.flutter, pms["results"], strict=True):
+            # accuracy in flutter speed: EAS (sqrt(q_f)); on a constant-speed sweep the true speed is M a_ref
             row = result_row(ams)
-            row["v_flutter_pms_m_s"] = result_row(ref)["v_flutter_m_s"]
-            row["omega_flutter_pms_rad_s"] = result_row(ref)["omega_flutter_rad_s"]
-            ok = row["v_flutter_m_s"] is not None and row["v_flutter_pms_m_s"] is not None
-            row["error_pct"] = 100.0 * (row["v_flutter_m_s"] / row["v_flutter_pms_m_s"] - 1.0) if ok else None
+            row["v_eas_pms_m_s"] = ref["v_eas_m_s"]
+            row["v_flutter_pms_m_s"] = ref["v_flutter_m_s"]
+            row["omega_flutter_pms_rad_s"] = ref["omega_flutter_rad_s"]
+            ok = row["v_eas_m_s"] is not None and row["v_eas_pms_m_s"] is not None
+            row["error_pct"] = 100.0 * (row["v_eas_m_s"] / row["v_eas_pms_m_s"] - 1.0) if ok else None
             row["omega_error_pct"] = (100.0 * (row["omega_flutter_rad_s"] / row["omega_flutter_pms_rad_s"] - 1.0)
                                       if ok else None)
             rows.append(row)
-            log(f"{name} M {row['mach']:.2f}: ROM-AMS V_f {row['v_flutter_m_s']} m/s, ROM-PMS "
-                f"{row['v_flutter_pms_m_s']} m/s, error {row['error_pct']} %")
+            log(f"{name} M {row['mach']:.2f}: ROM-AMS V_EAS {row['v_eas_m_s']} m/s, ROM-PMS "
+                f"{row['v_eas_pms_m_s']} m/s, error {row['error_pct']} %")
         design_rows.append({
             "name": name, "design": design, "mass_kg": float(modal.mass_kg),
             "frequencies_hz": [float(f) for f in modal.frequencies_hz], "mac": [float(x) for x in ev.mac],
@@ -189,7 +178,7 @@ def demo_command(
     design = DEMO_DESIGNS["var1"]
     modal_ms = _median_ms(lambda: modal_analysis(wing, design, 4, mesh), 7)
     modal = modal_analysis(wing, design, 4, mesh)
-    flutter_ms = _median_ms(lambda: evaluate(modal, baseline_eval.envelope), 5)
+    flutter_ms = _median_ms(lambda: evaluate(models, modal, condition, benchmark=baseline_eval.envelope), 5)
     proj_ms = _median_ms(lambda: project(basis.shapes, modal.shapes), 20)
     per_structure_s = (modal_ms + flutter_ms) / 1e3
     pms_per_structure_s = float(np.mean(timings["rom_pms_training_s"])) + per_structure_s
@@ -209,7 +198,8 @@ def demo_command(
     summary = {
         "wing": wing.name,
         "quick": quick,
-        "sweep": sweep.sweep,
+        "sweep": condition.sweep,
+        "flight_condition": condition.to_json(),
         "machs": machs,
         "baseline": {"frequencies_hz": [float(f) for f in base.frequencies_hz], "mass_kg": float(base.mass_kg),
                      "envelope": _envelope_json(baseline_eval.envelope),

@@ -1,4 +1,8 @@
-"""``romams flutter``: flutter speed, frequency and dynamic pressure of one structure at one or more Machs."""
+"""``romams flutter``: flutter speed, frequency and dynamic pressure of one structure at one or more Machs.
+
+It calls the same evaluation use case as the API's workers (``romams.services.evaluation``): same defaults,
+same numbers, same JSON keys. What it adds is local: the basis is built and the ROMs are trained when missing.
+"""
 
 from __future__ import annotations
 
@@ -11,57 +15,42 @@ import typer
 
 from romams.cli.app import app
 from romams.cli.modal import parse_design
-from romams.pipeline import (
-    SweepChoice,
-    ensure_basis,
-    ensure_roms,
-    flutter_pms,
-    resolve_wing,
-    result_row,
-    rom_identity,
-)
+from romams.services.errors import ServiceError
+from romams.services.evaluation import DEFAULT_MAC_THRESHOLD, DEFAULT_N_MODES
+from romams.services.flight import FlightCondition
 
 
-def structure_modes(wing: Any, mesh: Any, baseline: bool, design: str | None, modes_file: Path | None,
-                    bdf: Path | None, n_modes: int) -> Any:
-    """ModalResult of the structure named on the command line (design, baseline or external modes)."""
-    from romams_core.structure.modal import modal_analysis
+def external_modes(modes_file: Path, bdf: Path | None) -> Any:
+    """ExternalModes read from a JSON, NPZ or Nastran OP2 (+ BDF) file."""
+    from romams_core import modes_io
 
-    if modes_file is not None:
-        from romams_core import modes_io
-
-        suffix = modes_file.suffix.lower()
-        if bdf is not None or suffix == ".op2":
-            if bdf is None:
-                raise typer.BadParameter("an OP2 file needs its BDF (--bdf FILE)", param_hint="--modes")
-            modes = modes_io.load_modes_nastran(bdf, modes_file)
-        elif suffix == ".npz":
-            modes = modes_io.load_modes_npz(modes_file)
-        else:
-            modes = modes_io.load_modes_json(modes_file)
-        return modes_io.external_modal_result(modes, mesh)
-    if design is not None and baseline:
-        raise typer.BadParameter("give either --baseline or --design, not both", param_hint="--design")
-    values = parse_design(design) if design is not None else None
-    if values is None and wing.design_variables and not wing.has_baseline:
-        raise typer.BadParameter(f"wing {wing.name!r} has no baseline: give --design", param_hint="--design")
-    return modal_analysis(wing, values, n_modes=n_modes, mesh=mesh)
+    suffix = modes_file.suffix.lower()
+    if bdf is not None or suffix == ".op2":
+        if bdf is None:
+            raise typer.BadParameter("an OP2 file needs its BDF (--bdf FILE)", param_hint="--modes")
+        return modes_io.load_modes_nastran(bdf, modes_file)
+    if suffix == ".npz":
+        return modes_io.load_modes_npz(modes_file)
+    return modes_io.load_modes_json(modes_file)
 
 
-def sweep_choice(density: float | None, altitude: float | None, matched: bool, sweep: str | None) -> SweepChoice:
-    """The flutter sweep from the mutually exclusive CLI flags (default: constant density at ISA 10 km)."""
-    given = sum(x is not None and x is not False for x in (density, altitude, sweep)) + bool(matched)
-    if given > 1:
-        raise typer.BadParameter("give at most one of --density, --altitude, --matched, --sweep")
-    if matched:
-        return SweepChoice("matched")
-    if density is not None:
-        if not (math.isfinite(density) and density > 0):
-            raise typer.BadParameter("must be a finite density > 0 (kg/m^3)", param_hint="--density")
-        return SweepChoice("constant-density", rho_ref=density)
-    if altitude is not None:
-        return SweepChoice("constant-density", altitude_ref_m=altitude)
-    return SweepChoice(sweep or "constant-density")
+def flight_condition(density: float | None, altitude: float | None, matched: bool, sweep: str | None,
+                     v_max: float | None) -> FlightCondition:
+    """The flight condition from the CLI flags (default: the service's, constant speed at ISA 10 km)."""
+    given = sum(x is not None for x in (density, altitude, sweep)) + bool(matched)
+    if given > 1 and not (altitude is not None and sweep is not None and given == 2):
+        raise typer.BadParameter("give at most one of --density, --altitude, --matched, --sweep "
+                                 "(--altitude may accompany --sweep)")
+    try:
+        if matched:
+            return FlightCondition.from_options(sweep="matched", v_max_m_s=v_max)
+        if density is not None:
+            return FlightCondition.from_options(sweep="constant-density", rho_ref=density, v_max_m_s=v_max)
+        if altitude is not None and sweep is None:
+            return FlightCondition.from_options(sweep="constant-density", altitude_ref_m=altitude, v_max_m_s=v_max)
+        return FlightCondition.from_options(sweep=sweep, altitude_ref_m=altitude, v_max_m_s=v_max)
+    except ServiceError as exc:
+        raise typer.BadParameter(exc.reason, param_hint=f"--{(exc.field or 'sweep').replace('_', '-')}") from None
 
 
 @app.command("flutter")
@@ -69,85 +58,89 @@ def flutter_command(
     wing: str = typer.Option("cropped-delta", "--wing", help="wing template name, or a stored wing's name / id"),
     baseline: bool = typer.Option(False, "--baseline", help="evaluate the wing's baseline structure"),
     design: str | None = typer.Option(None, "--design", help="design variables NAME=VALUE,... (all of them)"),
-    mach: list[float] = typer.Option([0.87], "--mach", help="Mach number (repeat for several)"),
+    mach: list[float] = typer.Option([0.87], "--mach", help="Mach number (repeat for several; 0 = incompressible)"),
     density: float | None = typer.Option(None, "--density", help="constant-density sweep at RHO (kg/m^3)"),
-    altitude: float | None = typer.Option(None, "--altitude", help="constant-density sweep at ISA altitude H (m)"),
+    altitude: float | None = typer.Option(None, "--altitude", help="reference ISA altitude H (m); alone: "
+                                                                   "constant-density sweep there"),
     matched: bool = typer.Option(False, "--matched", help="matched-point sweep: altitude with V = M a(h)"),
-    sweep: str | None = typer.Option(None, "--sweep", help="constant-density | constant-speed | matched"),
+    sweep: str | None = typer.Option(None, "--sweep", help="constant-speed (default) | constant-density | matched"),
+    v_max: float | None = typer.Option(None, "--v-max", help="top speed (m/s) of a constant-density sweep"),
+    basis_id: int | None = typer.Option(None, "--basis-id", help="basis to use (default: the wing's active one)"),
     method: str = typer.Option("rom-ams", "--method", help="rom-ams (basis ROM) or rom-pms (train on own modes)"),
     modes_file: Path | None = typer.Option(None, "--modes", help="external modes: JSON, NPZ, or Nastran OP2"),
     bdf: Path | None = typer.Option(None, "--bdf", help="Nastran BDF of the OP2 given with --modes"),
-    n_modes: int = typer.Option(4, "--n-modes", min=1, max=30, help="structural modes in the analysis"),
+    n_modes: int = typer.Option(DEFAULT_N_MODES, "--n-modes", min=1, max=30,
+                                help="modes per structure if the basis must be built"),
     samples: int = typer.Option(25, "--samples", min=1, help="LHS samples if the basis must be built"),
-    mac: float = typer.Option(0.98, "--mac", help="basis MAC threshold if the basis must be built"),
+    mac: float = typer.Option(DEFAULT_MAC_THRESHOLD, "--mac", help="basis MAC threshold if the basis must be built"),
     na: int = typer.Option(8, "--na", min=1, max=40),
     nb: int = typer.Option(8, "--nb", min=1, max=40),
     plot: Path | None = typer.Option(None, "--plot", help="write V-g / V-omega plots (PNG and SVG) here"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
 ) -> None:
-    """Flutter analysis of one structure with the wing's ROM-AMS models (training what is missing)."""
+    """Flutter analysis of one structure with the wing's ROM-AMS models (building / training what is missing)."""
+    from romams.pipeline import cli_models, resolve_wing, rom_identity, train_shapes
+    from romams.services.evaluation import evaluate_structure_summary, pms_summary, structure_modal
     from romams.store import open_store
-    from romams_core.basis import project
-    from romams_core.evaluate import evaluate_structure
-    from romams_core.mesh import standard_mesh
 
     if method not in ("rom-ams", "rom-pms"):
         raise typer.BadParameter("must be rom-ams or rom-pms", param_hint="--method")
     for m in mach:
         if not (math.isfinite(m) and 0.0 <= m < 1.0):
             raise typer.BadParameter(f"{m!r}: must be in [0, 1) for the built-in subsonic solver", param_hint="--mach")
-    choice = sweep_choice(density, altitude, matched, sweep)
+    if not 0.0 < mac < 1.0:
+        raise typer.BadParameter("must be in (0, 1)", param_hint="--mac")
+    condition = flight_condition(density, altitude, matched, sweep, v_max)
+    if design is not None and baseline:
+        raise typer.BadParameter("give either --baseline or --design, not both", param_hint="--design")
+    if design is None and modes_file is None and not baseline:
+        baseline = True  # checked by the use case: a wing without a baseline needs --design
     store = open_store()
     try:
         wing_id, w = resolve_wing(store, wing)
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--wing") from None
-    mesh = standard_mesh(w.planform)
-    try:
-        modal = structure_modes(w, mesh, baseline, design, modes_file, bdf, n_modes)
-    except ValueError as exc:
-        raise typer.BadParameter(str(exc), param_hint="--design/--modes") from None
-    basis_id, basis = ensure_basis(store, wing_id, w, samples=samples, modes=n_modes, mac_threshold=mac)
-    ident = rom_identity("uvlm", na, nb)
+    values = parse_design(design) if design is not None else None
+    modes = external_modes(modes_file, bdf) if modes_file is not None else None
     machs = sorted(set(float(m) for m in mach))
-    proj = project(basis.shapes, modal.shapes, mac)
-    if method == "rom-pms":
-        results = flutter_pms(modal, mesh, machs, ident, choice)
-    else:
-        roms = ensure_roms(store, wing_id, w, basis_id, basis, machs, ident=ident)
-        ev = evaluate_structure(modal, basis.shapes, {m: r for m, (_, r) in roms.items()}, sweep=choice.sweep,
-                                mac_threshold=mac, flutter_options=choice.flutter_options())
-        results = ev.flutter
-    mass = float(getattr(modal, "mass_kg", math.nan))
-    out: dict[str, Any] = {
-        "wing": w.name,
-        "method": method,
-        "mass_kg": mass if math.isfinite(mass) else None,
-        "frequencies_hz": [float(f) for f in modal.frequencies_hz],
-        "mac": [float(x) for x in proj.mac],
-        "mac_ok": bool(proj.ok),
-        "results": [result_row(r) for r in results],
-    }
-    if not proj.ok:
-        out["warning"] = (f"modes {[i + 1 for i, p in enumerate(proj.poor_fit) if p]} fit the basis with "
-                          f"MAC < {mac:g}: ROM-AMS results for this structure are not reliable")
+    ident = rom_identity("uvlm", na, nb)
+    try:
+        models = cli_models(store, wing_id, w, machs, ident, basis_id=basis_id, samples=samples, modes=n_modes,
+                            mac_threshold=mac)
+        if method == "rom-pms":
+            modal = structure_modal(models, values, modes)
+            own = train_shapes(models.mesh, modal.shapes, machs, ident)
+            summary, result = pms_summary(models, modal, {m: (0, r) for m, r in zip(machs, own, strict=True)},
+                                          condition, external=modes is not None)
+        else:
+            summary, result = evaluate_structure_summary(models, design=values, modes=modes, condition=condition)
+    except ServiceError as exc:
+        hint = {"design": "--design", "modes": "--modes", "basis_id": "--basis-id"}.get(
+            (exc.field or "").split(".")[0].split("[")[0], "--design/--modes")
+        raise typer.BadParameter(exc.detail, param_hint=hint) from None
     if plot is not None:
-        out["plots"] = write_flutter_plots(plot, results)
+        summary["plots"] = write_flutter_plots(plot, result.flutter)
     if as_json:
-        typer.echo(json.dumps(out))
+        typer.echo(json.dumps(summary))
         return
+    echo_summary(summary)
+
+
+def echo_summary(out: dict[str, Any]) -> None:
+    """Human-readable lines of an evaluation summary."""
     freqs = ", ".join(f"{f:.2f}" for f in out["frequencies_hz"])
-    typer.echo(f"{w.name}: mass {out['mass_kg']} kg, frequencies {freqs} Hz, MAC "
-               + ", ".join(f"{x:.4f}" for x in out["mac"]))
-    if "warning" in out:
+    typer.echo(f"{out['wing']}: mass {out['mass_kg']} kg, frequencies {freqs} Hz, MAC "
+               + ", ".join(f"{x:.4f}" for x in out["mac"]) + f" (basis {out['basis_id']}, {out['n_basis']} shapes)")
+    if out.get("warning"):
         typer.echo("WARNING: " + out["warning"])
     for r in out["results"]:
+        head = f"  M = {r['mach']:.2f} ({r['sweep']}, rho_ref {r['rho_ref_kg_m3']:.4f} kg/m^3)"
         if r["flutter_found"]:
-            typer.echo(f"  M = {r['mach']:.2f} ({r['sweep']}): V_f = {r['v_flutter_m_s']:.2f} m/s, "
-                       f"omega_f = {r['omega_flutter_rad_s']:.1f} rad/s, q_f = {r['q_flutter_pa']:.0f} Pa, "
+            typer.echo(f"{head}: V_true = {r['v_true_m_s']:.2f} m/s, V_EAS = {r['v_eas_m_s']:.2f} m/s, "
+                       f"q_f = {r['q_flutter_pa']:.0f} Pa, omega_f = {r['omega_flutter_rad_s']:.1f} rad/s, "
                        f"mode {r['flutter_mode']}{', SDOFF' if r['sdoff'] else ''}")
         else:
-            typer.echo(f"  M = {r['mach']:.2f} ({r['sweep']}): {r['message']}")
+            typer.echo(f"{head}: {r['message']}")
 
 
 def write_flutter_plots(directory: Path, results: list[Any]) -> list[str]:
@@ -162,5 +155,3 @@ def write_flutter_plots(directory: Path, results: list[Any]) -> list[str]:
             p.write_bytes(fplots.vg_plot(r, fmt=ext))
             paths.append(str(p))
     return paths
-
-

@@ -1,0 +1,67 @@
+"""Which basis and ROMs an evaluation runs on: the wing's active basis (or one the request names).
+
+A wing has one *active* basis. The first basis built for a wing becomes active; a later one never does
+by itself (so building a basis, e.g. ``romams basis``, never changes what a running service answers),
+only an explicit activation (``PUT /api/v1/wings/{id}/active-basis``, ``romams basis --activate``).
+A request may name another basis of the wing (``basis_id``). On a basis, the ROM of each Mach is the
+newest one trained for it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from romams.services.errors import Conflict, InvalidInput, NotFound
+from romams.services.evaluation import Models
+
+
+def resolve_basis_id(store: Any, wing_id: int, basis_id: int | None = None) -> int:
+    """The basis an evaluation of ``wing_id`` uses: ``basis_id`` when given (it must belong to the wing), else the
+    wing's active basis. NotFound / Conflict naming ``basis_id``."""
+    if basis_id is not None:
+        if store.basis_wing_id(int(basis_id)) != int(wing_id):
+            raise NotFound("basis_id", f"basis {basis_id} does not belong to wing {wing_id}")
+        return int(basis_id)
+    active = store.active_basis_id(int(wing_id))
+    if active is None:
+        raise Conflict("basis_id", f"wing {wing_id} has no basis yet; POST /api/v1/wings/{wing_id}/basis first")
+    return int(active)
+
+
+def trained_rom_ids(store: Any, wing_id: int, basis_id: int, machs: Sequence[float] | None = None,
+                    field: str = "machs") -> list[list[float]]:
+    """[(mach, rom_id)] of the newest ROM of each requested (default: every trained) Mach on the basis."""
+    trained: dict[float, int] = {}
+    for r in sorted(store.list_roms(wing_id, basis_id), key=lambda r: r["id"]):  # the newest of each Mach wins
+        trained[round(float(r["mach"]), 6)] = int(r["id"])
+    if not trained:
+        raise Conflict(field, f"no ROM is trained on basis {basis_id}; POST /api/v1/wings/{wing_id}/roms first")
+    if machs is None:
+        return [[m, trained[m]] for m in sorted(trained)]
+    out = []
+    for i, m in enumerate(machs):
+        key = round(float(m), 6)
+        if key not in trained:
+            raise InvalidInput(f"{field}[{i}]", f"Mach {m} is not trained on basis {basis_id}; "
+                                                f"trained: {sorted(trained)}")
+        out.append([key, trained[key]])
+    if len({m for m, _ in out}) != len(out):
+        raise InvalidInput(field, "contains duplicates")
+    return sorted(out)
+
+
+def load_models(wing_id: int, wing: Any, basis_id: int, rom_ids: Sequence[Sequence[float]],
+                load_basis: Callable[[int], Any], load_rom: Callable[[int], Any],
+                load_mesh: Callable[[int], Any]) -> Models:
+    """Models of an evaluation from ids, with the caller's (possibly cached) loaders."""
+    roms = {float(m): (int(rid), load_rom(int(rid))) for m, rid in rom_ids}
+    return Models(int(wing_id), wing, load_mesh(int(wing_id)), int(basis_id), load_basis(int(basis_id)), roms)
+
+
+def activate_first_basis(store: Any, wing_id: int, basis_id: int) -> bool:
+    """Make ``basis_id`` the wing's active basis if it has none yet; True when it became active."""
+    if store.active_basis_id(int(wing_id)) is not None:
+        return False
+    store.set_active_basis(int(wing_id), int(basis_id))
+    return True

@@ -1,0 +1,87 @@
+"""Per-process state of a worker: its store handle, settings, bounded object caches and the cached loaders.
+
+Both task modules (``worker.tasks`` for training, ``worker.evaluation`` for flutter evaluations) import
+this module and nothing from each other, so the worker package has no import cycle.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from romams.jobs import JobFailed, run_job
+from romams.settings import get_settings
+from romams.store import Store, open_store
+from worker.cache import LruCache
+
+_STORE: list[Store] = []
+settings = get_settings()
+OBJECTS = LruCache(settings.cache_size)  # (kind, id) -> wing / basis / ROM / mesh / baseline evaluation
+
+
+def store() -> Store:
+    """This process's store (opened on first use, after any fork)."""
+    if not _STORE:
+        _STORE.append(open_store(settings))
+    return _STORE[0]
+
+
+def reset_process_state() -> None:
+    """Forget the store handle (a forked pool process opens its own)."""
+    _STORE.clear()
+
+
+def run(job_id: str, body: Any, **kw: Any) -> Any:
+    """run_job with this worker's settings."""
+    return run_job(store(), job_id, body, max_deliveries=settings.max_deliveries,
+                   heartbeat_s=settings.heartbeat_s, **kw)
+
+
+def load_wing(wing_id: int) -> Any:
+    """WingDefinition of a stored wing (cached; a stored definition never changes)."""
+    def load() -> Any:
+        found = store().find_wing(int(wing_id))
+        if found is None:
+            raise JobFailed(f"wing {wing_id} not found")
+        return found[1]
+    return OBJECTS.get_or_load(("wing", int(wing_id)), load)
+
+
+def load_mesh(wing_id: int) -> Any:
+    """Standard mesh of a stored wing (cached)."""
+    from romams_core.mesh import standard_mesh
+
+    return OBJECTS.get_or_load(("mesh", int(wing_id)), lambda: standard_mesh(load_wing(wing_id).planform))
+
+
+def load_basis(basis_id: int) -> Any:
+    """Basis by id (cached; a stored basis never changes)."""
+    return OBJECTS.get_or_load(("basis", int(basis_id)), lambda: store().load_basis(int(basis_id)))
+
+
+def load_rom(rom_id: int) -> Any:
+    """TrainedRom by id (cached; a ROM row never changes, a retrained one gets a new id)."""
+    return OBJECTS.get_or_load(("rom", int(rom_id)), lambda: store().load_rom(int(rom_id)))
+
+
+def make_solver(name: str) -> Any:
+    """Unsteady solver instance by name (romams.pipeline.make_solver); an unknown one fails the job."""
+    from romams.pipeline import make_solver as _make
+
+    try:
+        return _make(name)
+    except ValueError as exc:
+        raise JobFailed(str(exc)) from exc
+
+
+def chunk_outcome(s: Store, parent_id: str) -> list[dict[str, Any]] | None:
+    """The chunks of a fan-out parent, or None after ending the parent because a chunk was cancelled or failed."""
+    kids = s.children(parent_id)
+    if any(k["status"] == "cancelled" for k in kids):
+        s.finish_job(parent_id, "cancelled", message="a chunk was cancelled")
+        return None
+    failed = [k for k in kids if k["status"] == "failed"]
+    if failed:
+        first = failed[0]
+        s.finish_job(parent_id, "failed", error=f"chunk {first['params'].get('index')} failed: {first['error']}")
+        return None
+    return kids
