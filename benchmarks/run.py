@@ -11,6 +11,9 @@
 - batch_throughput_per_s: designs per second through POST /flutter/batch of a live embedded service
   (``romams serve``, SQLite, child worker) that this benchmark starts, with 1 and 2 worker processes;
   worker_peak_rss_mb: peak resident memory (VmHWM) of the worker processes over a 1 000-design batch.
+- http_over_inprocess: median wall time of one synchronous evaluation through POST /flutter of a live
+  embedded service (one evaluation worker) over the same work in process (the evaluation use case on
+  the same stored models); ``http_over_inprocess_by_mode`` adds PostgreSQL + Redis when they answer.
 - optimization_wall_s (not with --quick): a fresh service, basis (25 samples) + training at 5 Machs +
   the paper's DE (Np = 30, 150 generations = 4 530 structures) over HTTP, end to end.
 ``--all`` adds the other benchmark scripts' JSON (bench_modal, bench_projection, bench_training,
@@ -128,10 +131,10 @@ def rom_pms_cost(models: dict[str, Any], n_designs: int, ams_ms: float, seed: in
         times.append(time.process_time() - t0)
         ams = evaluate_structure(modal, basis.shapes, roms, zeta=zeta)
         for a, p in zip(ams.flutter, pms.flutter, strict=True):
-            if a.flutter_found and p.flutter_found:
-                errors.append(100.0 * (a.v_flutter_m_s - p.v_flutter_m_s) / p.v_flutter_m_s)
-            rows.append({"mach": float(a.mach), "v_ams": a.v_flutter_m_s if a.flutter_found else None,
-                         "v_pms": p.v_flutter_m_s if p.flutter_found else None})
+            if a.flutter_found and p.flutter_found:  # speed error as EAS, i.e. sqrt of the q_f ratio
+                errors.append(100.0 * (math.sqrt(a.q_flutter_pa / p.q_flutter_pa) - 1.0))
+            rows.append({"mach": float(a.mach), "q_ams_pa": a.q_flutter_pa if a.flutter_found else None,
+                         "q_pms_pa": p.q_flutter_pa if p.flutter_found else None})
     pms_ms = 1e3 * float(np.median(times))
     err = np.abs(np.array(errors)) if errors else np.array([math.nan])
     return {"rom_pms_over_rom_ams": pms_ms / ams_ms, "rom_pms_ms": pms_ms, "rom_ams_ms": ams_ms,
@@ -202,6 +205,91 @@ def service_throughput(data_dir: Path, workers: int, n_batch: int, samples: int,
             "errors": failed, "worker_peak_rss_mb": max(rss) if rss else None,
             "worker_processes_rss_mb": rss, "api_peak_rss_mb": api_rss[0] if api_rss else None,
             "load_avg_1min_before": load0, **setup}
+
+
+def _fresh_pg_database() -> tuple[str, Any] | None:
+    """(SQLAlchemy URL, drop callback) of a new PostgreSQL database at 127.0.0.1:5432, or None if unreachable."""
+    try:
+        import psycopg
+
+        admin = psycopg.connect("postgresql://postgres@127.0.0.1:5432/test", autocommit=True, connect_timeout=3)
+    except Exception:  # noqa: BLE001 - no server: the distributed variant is skipped
+        return None
+    name = f"romams_bench_{os.getpid()}_{int(time.time())}"
+    admin.execute(f'CREATE DATABASE "{name}"')
+
+    def drop() -> None:
+        admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+        admin.close()
+
+    return f"postgresql+psycopg://postgres@127.0.0.1:5432/{name}", drop
+
+
+def _redis_url() -> str | None:
+    """A Redis URL (database 15, flushed) at 127.0.0.1:6379, or None if unreachable."""
+    try:
+        import redis
+
+        r = redis.Redis.from_url("redis://127.0.0.1:6379/15", socket_connect_timeout=3)
+        r.ping()
+        r.flushdb()
+    except Exception:  # noqa: BLE001
+        return None
+    return "redis://127.0.0.1:6379/15"
+
+
+def http_latency(data_dir: Path, samples: int, n_designs: int, seed: int = 21, **settings: Any) -> dict[str, Any]:
+    """One synchronous evaluation over HTTP vs the same work in process (the use case on the same stored models).
+
+    A live service (API + one evaluation worker process) with ``settings``; the designs differ from request to
+    request (no cached answer), ``store`` is false on both sides (same work). Medians of wall times (ms).
+    """
+    import httpx
+
+    from benchmarks.live_service import LiveService
+    from client import RomamsClient
+    from romams.services.evaluation import evaluate_structure_summary
+    from romams.services.models import load_models, resolve_basis_id, trained_rom_ids
+    from romams.settings import Settings
+    from romams.store import open_store
+    from romams_core.basis import random_designs
+    from romams_core.mesh import standard_mesh
+
+    with LiveService(data_dir, concurrency=1, **settings) as svc, RomamsClient(svc.url, timeout=600) as client:
+        wid, setup = _prepare(client, samples, MACHS)
+        store = open_store(Settings(data_dir=data_dir, **{k: v for k, v in settings.items() if k != "broker_url"}))
+        wing_id, wing = store.find_wing(wid)
+        bid = resolve_basis_id(store, wing_id)
+        models = load_models(wing_id, wing, bid, trained_rom_ids(store, wing_id, bid), store.load_basis,
+                             store.load_rom, lambda _: standard_mesh(wing.planform))
+        designs = random_designs(wing, 2 * n_designs + 2, seed=seed).tolist()
+        cache: dict[Any, Any] = {}
+
+        def memo(key: Any, load: Any) -> Any:
+            if key not in cache:
+                cache[key] = load()
+            return cache[key]
+
+        evaluate_structure_summary(models, design=designs[0], cache=memo)  # warm-up (baseline, caches)
+        local = []
+        for d in designs[2:n_designs + 2]:
+            t0 = time.perf_counter()
+            evaluate_structure_summary(models, design=d, cache=memo)
+            local.append(time.perf_counter() - t0)
+        remote = []
+        with httpx.Client(base_url=svc.url, timeout=120) as http:
+            assert http.post(f"/api/v1/wings/{wid}/flutter", json={"design": designs[1], "store": False}
+                             ).status_code == 200  # warm-up: the worker loads the models
+            for d in designs[n_designs + 2:]:
+                t0 = time.perf_counter()
+                r = http.post(f"/api/v1/wings/{wid}/flutter", json={"design": d, "store": False})
+                remote.append(time.perf_counter() - t0)
+                if r.status_code != 200:
+                    raise RuntimeError(f"evaluation failed: {r.status_code} {r.text[:300]}")
+    ms_local, ms_http = 1e3 * float(np.median(local)), 1e3 * float(np.median(remote))
+    return {"in_process_ms_median": ms_local, "http_ms_median": ms_http, "http_over_inprocess": ms_http / ms_local,
+            "http_ms_p90": 1e3 * float(np.percentile(remote, 90)), "n_designs": n_designs, "machs": list(MACHS),
+            "n_basis": int(models.basis.n_basis), **setup}
 
 
 def optimization(data_dir: Path, generations: int, popsize: int, workers: int = 2) -> dict[str, Any]:
@@ -291,6 +379,21 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             out["worker_peak_rss_mb"] = runs[-1]["worker_peak_rss_mb"]
             out["worker_peak_rss_batch"] = runs[-1]["n_designs"]
             out["service"] = runs
+            log("single synchronous evaluation: HTTP (embedded service) vs in process")
+            lat = {"embedded": http_latency(Path(tmp) / "lat", samples=25, n_designs=10 if quick else 30)}
+            pg, redis_url = _fresh_pg_database(), _redis_url()
+            if pg is not None and redis_url is not None:
+                log("single synchronous evaluation: HTTP (PostgreSQL + Redis) vs in process")
+                try:
+                    lat["distributed"] = http_latency(Path(tmp) / "lat-pg", samples=25,
+                                                      n_designs=10 if quick else 30, database_url=pg[0],
+                                                      broker_url=redis_url)
+                finally:
+                    pg[1]()
+            out["http_over_inprocess"] = lat["embedded"]["http_over_inprocess"]
+            out["http_over_inprocess_by_mode"] = {k: v["http_over_inprocess"] for k, v in lat.items()}
+            out["single_evaluation"] = lat
+            log("http_over_inprocess = " + ", ".join(f"{k} {v['http_over_inprocess']:.2f}" for k, v in lat.items()))
             if not quick:
                 log(f"optimization: fresh service, DE {args.popsize} x {args.generations} generations")
                 opt = optimization(Path(tmp) / "opt", args.generations, args.popsize)

@@ -48,3 +48,29 @@ def test_importing_every_core_module_loads_no_service_library():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+def _package_graph(package: str):
+    """Import graph (grimp, as used by import-linter) of one top-level package."""
+    import grimp
+
+    return grimp.build_graph(package, include_external_packages=False)
+
+
+def test_worker_package_has_no_import_cycle():
+    graph = _package_graph("worker")
+    mods = sorted(m for m in graph.modules if m.startswith("worker"))
+    cycles = [(a, b) for a in mods for b in mods
+              if a < b and graph.chain_exists(a, b) and graph.chain_exists(b, a)]
+    assert cycles == []
+
+
+def test_cycle_check_would_see_a_cycle(tmp_path, monkeypatch):
+    pkg = tmp_path / "cyc"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from cyc import b\n")
+    (pkg / "b.py").write_text("from cyc import a\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    graph = _package_graph("cyc")
+    assert graph.chain_exists("cyc.a", "cyc.b") and graph.chain_exists("cyc.b", "cyc.a")
