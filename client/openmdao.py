@@ -56,7 +56,7 @@ def _build() -> type:
             outputs["mass"] = ev.mass_kg[0]
             outputs["objective"] = ev.objective[0]
             outputs["envelope_margin"] = ev.envelope_margin_m[0]
-            outputs["v_flutter"] = ev.v_flutter_m_s[0]
+            outputs["v_flutter"] = ev.v_eas_m_s[0]  # equivalent airspeed: carries q_f on every sweep
             outputs["min_mac"] = ev.min_mac[0]
             outputs["sdoff"] = float(ev.sdoff[0])
             outputs["feasible"] = float(ev.feasible[0])

@@ -29,7 +29,8 @@ class BatchEvaluation:
     envelope_ok: np.ndarray  # [n] bool (True when the wing has no baseline to compare with)
     envelope_margin_m: np.ndarray  # [n, n_mach] baseline safe altitude - design safe altitude (m), > 0 is safer
     safe_altitude_m: np.ndarray  # [n, n_mach]
-    v_flutter_m_s: np.ndarray  # [n, n_mach], NaN without flutter in range
+    v_flutter_m_s: np.ndarray  # [n, n_mach] true airspeed at flutter (m/s), NaN without flutter in range
+    v_eas_m_s: np.ndarray  # [n, n_mach] equivalent airspeed at flutter (m/s): carries q_f on any sweep
     omega_flutter_rad_s: np.ndarray  # [n, n_mach]
     sdoff: np.ndarray  # [n] bool, SDOFF at any Mach
     min_mac: np.ndarray  # [n] worst mode-fit MAC
@@ -40,7 +41,8 @@ class BatchEvaluation:
         """Constraint arrays by name: mass, envelope margin per Mach, sdoff, min_mac, feasible."""
         return {"mass": self.mass_kg, "envelope_margin_m": self.envelope_margin_m, "envelope_ok": self.envelope_ok,
                 "sdoff": self.sdoff, "min_mac": self.min_mac, "feasible": self.feasible,
-                "safe_altitude_m": self.safe_altitude_m, "v_flutter_m_s": self.v_flutter_m_s}
+                "safe_altitude_m": self.safe_altitude_m, "v_flutter_m_s": self.v_flutter_m_s,
+                "v_eas_m_s": self.v_eas_m_s}
 
 
 def _num(v: Any) -> float:
@@ -143,6 +145,7 @@ class FlutterProblem:
         margin = np.full((n, k), math.nan)
         alt = np.full((n, k), math.nan)
         vf = np.full((n, k), math.nan)
+        ve = np.full((n, k), math.nan)
         wf = np.full((n, k), math.nan)
         sdoff = np.zeros(n, dtype=bool)
         min_mac = np.full(n, math.nan)
@@ -159,6 +162,7 @@ class FlutterProblem:
                 if p is not None:
                     alt[i, j] = _num(p.get("safe_altitude_m"))
                     vf[i, j] = _num(p.get("v_flutter_m_s"))
+                    ve[i, j] = _num(p.get("v_eas_m_s"))
                     wf[i, j] = _num(p.get("omega_flutter_rad_s"))
             if r.get("envelope_margin_m") is not None:
                 margin[i] = np.asarray(r["envelope_margin_m"], dtype=float)
@@ -178,7 +182,7 @@ class FlutterProblem:
             n_sdoff = np.array([sum(bool(p.get("sdoff")) for p in (r.get("results") or [])) for r in results])
             c = np.where(feasible, 0.0, 1.0 + excess_km * (~env_ok) + mac_deficit + n_sdoff)
         objective = np.where(np.isfinite(mass), np.nan_to_num(mass) + self.mu * c, 2.0 * self.mu * (1 + c))
-        return BatchEvaluation(pop.copy(), objective, mass, feasible, env_ok, margin, alt, vf, wf, sdoff, min_mac,
+        return BatchEvaluation(pop.copy(), objective, mass, feasible, env_ok, margin, alt, vf, ve, wf, sdoff, min_mac,
                                self.machs.copy(), errors)
 
     def __call__(self, x: Any) -> np.ndarray | float:

@@ -181,6 +181,7 @@ def verify_local(definition: dict[str, Any], x: list[float], machs: list[float],
     roms = {float(m): train_rom(mesh, modal.shapes, float(m), UvlmSolver(), **train_options) for m in machs}
     ev = evaluate_structure(modal, modal.shapes, roms, mac_threshold=mac_threshold, zeta=wing.modal_damping or None)
     rows = [{"mach": float(r.mach), "v_flutter_m_s": r.v_flutter_m_s if r.flutter_found else None,
+             "v_eas_m_s": r.v_eas_m_s if r.flutter_found else None,
              "omega_flutter_rad_s": r.omega_flutter_rad_s if r.flutter_found else None, "sdoff": bool(r.sdoff),
              "flutter_mode": r.flutter_mode} for r in ev.flutter]
     return {"method": "rom-pms (local, romams_core)", "mass_kg": float(ev.mass_kg), "results": rows,
@@ -188,12 +189,12 @@ def verify_local(definition: dict[str, Any], x: list[float], machs: list[float],
 
 
 def accuracy_table(ams: dict[str, Any], pms: dict[str, Any] | None) -> list[dict[str, Any]]:
-    """Table 8: flutter speed and frequency by ROM-AMS and ROM-PMS per Mach, with the relative error (%)."""
+    """Table 8: flutter speed (EAS) and frequency by ROM-AMS and ROM-PMS per Mach, with the relative error (%)."""
     by = {round(r["mach"], 6): r for r in (pms or {}).get("results", [])}
     rows = []
     for r in ams["results"]:
         p = by.get(round(r["mach"], 6), {})
-        row = {"mach": r["mach"], "v_ams": r["v_flutter_m_s"], "v_pms": p.get("v_flutter_m_s"),
+        row = {"mach": r["mach"], "v_ams": r["v_eas_m_s"], "v_pms": p.get("v_eas_m_s"),
                "omega_ams": r["omega_flutter_rad_s"], "omega_pms": p.get("omega_flutter_rad_s")}
         for key, a, b in (("v_error_pct", row["v_ams"], row["v_pms"]),
                           ("omega_error_pct", row["omega_ams"], row["omega_pms"])):

@@ -85,7 +85,7 @@ def write_histograms(path: Path, machs: np.ndarray, vf: np.ndarray, alt: np.ndar
     k = machs.size
     fig, axes = plt.subplots(2, k, figsize=(2.9 * k, 5.4), layout="constrained", squeeze=False)
     for j in range(k):
-        for row, (data, nom, label) in enumerate(((vf[:, j], nominal_vf[j], "flutter speed, m/s"),
+        for row, (data, nom, label) in enumerate(((vf[:, j], nominal_vf[j], "flutter speed (EAS), m/s"),
                                                   (alt[:, j] / 1e3, nominal_alt[j] / 1e3, "safe altitude, km"))):
             ax = axes[row, j]
             d = data[np.isfinite(data)]
@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - t0
-    vf = np.vstack([p.v_flutter_m_s for p in parts])
+    vf = np.vstack([p.v_eas_m_s for p in parts])  # EAS: the flutter speed that varies on a constant-speed sweep
     alt = np.vstack([p.safe_altitude_m for p in parts])
     mass = np.concatenate([p.mass_kg for p in parts])
     feasible = np.concatenate([p.feasible for p in parts])
@@ -170,11 +170,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "sigma": dict(zip(names, sigma.tolist(), strict=True)),
         "relative_std": dict(zip(names, rel.tolist(), strict=True)),
         "nominal_result": {"mass_kg": float(nom.mass_kg[0]), "feasible": bool(nom.feasible[0]),
-                           "v_flutter_m_s": [None if not math.isfinite(v) else float(v) for v in nom.v_flutter_m_s[0]],
+                           "v_eas_m_s": [None if not math.isfinite(v) else float(v) for v in nom.v_eas_m_s[0]],
                            "safe_altitude_m": nom.safe_altitude_m[0].tolist()},
         "benchmark_safe_altitude_m": bench.tolist(),
         "mass_kg": _stats(mass),
-        "per_mach": [{"mach": float(m), "v_flutter_m_s": _stats(vf[:, j]), "safe_altitude_m": _stats(alt[:, j]),
+        "per_mach": [{"mach": float(m), "v_eas_m_s": _stats(vf[:, j]), "safe_altitude_m": _stats(alt[:, j]),
                       "no_flutter_fraction": float(np.mean(~np.isfinite(vf[:, j])))}
                      for j, m in enumerate(machs)],
         "probability_constraint_violated": float(1.0 - feasible.mean()),
@@ -182,15 +182,15 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "wall_s": wall, "designs_per_s": len(x) / wall, "batch_requests": problem.n_calls,
         "figure": "uq_flutter.png",
     }
-    write_histograms(args.out / "uq_flutter.png", machs, vf, alt, nom.v_flutter_m_s[0], nom.safe_altitude_m[0], bench)
+    write_histograms(args.out / "uq_flutter.png", machs, vf, alt, nom.v_eas_m_s[0], nom.safe_altitude_m[0], bench)
     (args.out / "uq_summary.json").write_text(json.dumps(summary, indent=1))
     print(f"{len(x)} samples in {wall:.1f} s ({len(x) / wall:.1f} designs/s); P(constraint violated) = "
           f"{summary['probability_constraint_violated']:.3f}", file=sys.stderr)
     for row in summary["per_mach"]:
-        s = row["v_flutter_m_s"]
+        s = row["v_eas_m_s"]
         if s.get("n"):
             p = s["percentiles"]
-            print(f"  M {row['mach']:.2f}: V_f mean {s['mean']:.2f} m/s, std {s['std']:.2f}, 5-95 % "
+            print(f"  M {row['mach']:.2f}: V_f (EAS) mean {s['mean']:.2f} m/s, std {s['std']:.2f}, 5-95 % "
                   f"[{p['5']:.2f}, {p['95']:.2f}], no flutter {100 * row['no_flutter_fraction']:.1f} %",
                   file=sys.stderr)
     return summary

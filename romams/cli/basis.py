@@ -11,6 +11,8 @@ import numpy as np
 import typer
 
 from romams.cli.app import app
+from romams.services.evaluation import DEFAULT_MAC_THRESHOLD
+from romams.services.models import activate_first_basis
 from romams_core.basis import Basis, build_basis_for_wing, mac_by_basis_size, project, random_designs, snapshot
 from romams_core.mesh import standard_mesh
 
@@ -57,7 +59,8 @@ def basis_command(
     wing: str = typer.Option("cropped-delta", "--wing", help="wing template name, or a stored wing's name / id"),
     samples: int = typer.Option(25, "--samples", min=1, help="Latin hypercube samples of the design space"),
     modes: int = typer.Option(4, "--modes", min=1, max=50, help="modes per sample structure"),
-    mac: float = typer.Option(0.98, "--mac", min=0.0, max=1.0, help="MAC threshold epsilon for choosing m"),
+    mac: float = typer.Option(DEFAULT_MAC_THRESHOLD, "--mac", min=0.0, max=1.0,
+                              help="MAC threshold epsilon for choosing m (default 0.9999: ROM-AMS within 1 %)"),
     seed: int = typer.Option(0, "--seed", help="seed of the LHS (hold-out designs use seed + 1000)"),
     max_basis: int = typer.Option(12, "--max-basis", min=1, help="cap on the number of basis shapes"),
     holdout: int = typer.Option(20, "--holdout", min=0, help="random hold-out designs to check the fit on"),
@@ -65,6 +68,8 @@ def basis_command(
     out: Path | None = typer.Option(None, "--out", help="also write the basis to this NPZ file"),
     plot: Path | None = typer.Option(None, "--plot", help="write PNG figures into this directory"),
     store: bool = typer.Option(True, "--store/--no-store", help="save the basis in the local store"),
+    activate: bool = typer.Option(False, "--activate", help="make it the wing's active basis (the first basis of a "
+                                                           "wing becomes active anyway; a later one only with this)"),
 ) -> None:
     """Build the PCA basis of mode shapes for a wing and report its fit (MAC) on samples and hold-out designs."""
     if not 0.0 < mac < 1.0:
@@ -111,6 +116,11 @@ def basis_command(
         params = {"samples": samples, "modes": modes, "mac_threshold": mac, "max_basis": max_basis, "seed": seed}
         report["wing_id"] = wing_id
         report["basis_id"] = st.save_basis(wing_id, basis, params)
+        if activate:
+            st.set_active_basis(wing_id, report["basis_id"])
+        else:
+            activate_first_basis(st, wing_id, report["basis_id"])
+        report["active_basis_id"] = st.active_basis_id(wing_id)
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(out, **basis_arrays(basis))
