@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import hmac
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from fastapi import Request
@@ -20,6 +20,7 @@ class Service:
     settings: Settings
     store: Store
     celery: Any
+    wings: dict[str, tuple[int, Any]] = field(default_factory=dict)  # stored wings never change: cached by ref
 
 
 def service(request: Request) -> Service:
@@ -42,11 +43,16 @@ def require_key(request: Request) -> None:
 
 
 def wing_or_404(svc: Service, wing_ref: str) -> tuple[int, Any]:
-    """(id, WingDefinition) by id or name, else 404 naming the wing."""
+    """(id, WingDefinition) by id or name, else 404 naming the wing (a found wing is cached: wings are immutable)."""
+    hit = svc.wings.get(wing_ref)
+    if hit is not None:
+        return hit
     try:
         found = svc.store.find_wing(wing_ref)
     except ValueError as exc:  # a stored definition the current code cannot read
         raise Problem(409, f"wing: stored definition of {wing_ref!r} cannot be loaded: {exc}", "wing") from exc
     if found is None:
         raise Problem(404, f"wing: no wing with id or name {wing_ref!r}", "wing")
+    if len(svc.wings) < 1024:
+        svc.wings[wing_ref] = found
     return found
