@@ -28,6 +28,7 @@ H_MIN_M = -5004.0  # ambiance's lower limit (m); hard-coded so as not to depend 
 H_MAX_M = 81020.0  # ambiance's upper limit (m)
 _P_AT_H_MIN = float(Atmosphere(H_MIN_M).pressure[0])
 _P_AT_H_MAX = float(Atmosphere(H_MAX_M).pressure[0])
+RHO_SEA_LEVEL = float(Atmosphere(0.0).density[0])  # ISA sea-level density rho_0 (1.225 kg/m^3), for EAS
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from romams_core.arx import ArxModel
+from romams_core.errors import InputError
 
 __all__ = [
     "DiscreteSS",
@@ -23,6 +24,8 @@ __all__ = [
     "balanced_models",
     "to_modal",
     "d2c_tustin",
+    "tustin_lu",
+    "tustin_matrices",
     "spectral_radius",
     "reflect_unstable_poles",
     "refit_output_map",
@@ -284,18 +287,51 @@ def to_modal(ss: DiscreteSS, gamma: np.ndarray) -> DiscreteSS:
     return DiscreteSS(A=ss.A.copy(), B=ss.B @ gamma, C=gamma.T @ ss.C, D=gamma.T @ ss.D @ gamma, dt_star=ss.dt_star)
 
 
+def tustin_lu(a: np.ndarray, field: str = "ss.A") -> tuple[np.ndarray, np.ndarray]:
+    """LU factors of I + A (scipy.linalg.lu_factor); InputError naming ``field`` when A has a pole at z = -1."""
+    lu = sla.lu_factor(np.eye(a.shape[0]) + a)
+    if np.min(np.abs(np.diag(lu[0]))) < 1e-12:
+        raise InputError(field, "has a pole at z = -1; the Tustin (bilinear) map cannot convert it")
+    return lu
+
+
+def tustin_matrices(
+    a: np.ndarray,
+    b: np.ndarray,
+    c: np.ndarray,
+    d: np.ndarray,
+    dt_star: float,
+    lu: tuple[np.ndarray, np.ndarray] | None = None,
+    abar: np.ndarray | None = None,
+    field: str = "ss.A",
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Bilinear (Tustin) map of a discrete model in t* (step dt_star) to continuous time in t*, balanced form.
+
+    With P = (I + A)^-1 and w0 = 2 / dt*: A_c = w0 (A - I) P, B_c = sqrt(2 w0) P B, C_c = sqrt(2 w0) C P,
+    D_c = D - C P B (s* = w0 (z - 1)/(z + 1); frequencies warp as k_c = tan(k dt*) / dt*). ``lu`` (the LU
+    factors of I + A) and ``abar`` (A_c) may be passed when already known (the flutter search caches them per
+    ROM). A pole at z = -1 is refused (InputError naming ``field``). The one implementation of the map:
+    :func:`d2c_tustin` and ``romams_core.flutter.tustin_to_continuous`` call it.
+    """
+    if a.shape[0] == 0:
+        return a.copy(), b.copy(), c.copy(), d.copy()
+    w0 = 2.0 / dt_star
+    if lu is None:
+        lu = tustin_lu(a, field)
+    pb = sla.lu_solve(lu, b)
+    cp = sla.lu_solve(lu, c.T, trans=1).T  # C P = (P^T C^T)^T
+    if abar is None:
+        eye = np.eye(a.shape[0])
+        abar = w0 * (a - eye) @ sla.lu_solve(lu, eye)
+    s = math.sqrt(2.0 * w0)
+    return abar, s * pb, s * cp, d - c @ pb
+
+
 def d2c_tustin(ss: DiscreteSS) -> ContinuousSS:
     """Bilinear (Tustin) map to continuous time in t*: s* = (2/dt*)(z-1)/(z+1); balanced B/C scaling.
 
     A_c = (2/dt*) (A - I)(I + A)^-1, B_c = sqrt(4/dt*) (I + A)^-1 B, C_c = sqrt(4/dt*) C (I + A)^-1,
-    D_c = D - C (I + A)^-1 B. Frequencies warp as k_c = tan(k dt*) / dt*. A pole at z = -1 is refused.
+    D_c = D - C (I + A)^-1 B (:func:`tustin_matrices`). A pole at z = -1 is refused (InputError naming ss.A).
     """
-    n = ss.n_states
-    eye = np.eye(n)
-    ipa = eye + ss.A
-    if n and np.linalg.cond(ipa) > 1e12:
-        raise ValueError("ss: a pole at z = -1 has no Tustin image")
-    p = np.linalg.inv(ipa) if n else np.zeros((0, 0))
-    w0 = 2.0 / ss.dt_star
-    r = math.sqrt(2.0 * w0)
-    return ContinuousSS(A=w0 * (ss.A - eye) @ p, B=r * p @ ss.B, C=r * ss.C @ p, D=ss.D - ss.C @ p @ ss.B)
+    a, b, c, d = tustin_matrices(ss.A, ss.B, ss.C, ss.D, ss.dt_star, field="ss.A")
+    return ContinuousSS(A=a, B=b, C=c, D=d)

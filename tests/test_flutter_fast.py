@@ -17,8 +17,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-import romams_core.flutter as fl
-from romams_core.flutter import flutter_analysis
+from romams_core.flutter import eigen, flutter_analysis, model
 from romams_core.typical_section import TypicalSection, jones_discrete, modes
 
 OMEGA4 = np.array([60.0, 150.0, 260.0, 420.0])
@@ -35,13 +34,13 @@ def random_rom(seed: int, na: int = 10, k: int = 4) -> SimpleNamespace:
 
 def both_paths(monkeypatch: pytest.MonkeyPatch, fn):
     """(fast result, reference result) of fn(); the reference path is forced by refusing diagonalization."""
-    fl._PREP_CACHE.clear()
+    model.PREP_CACHE.clear()
     fast = fn()
     with monkeypatch.context() as mp:
-        mp.setattr(fl, "_DIAG_COND_MAX", 0.0)
-        fl._PREP_CACHE.clear()
+        mp.setattr(model, "DIAG_COND_MAX", 0.0)
+        model.PREP_CACHE.clear()
         ref = fn()
-    fl._PREP_CACHE.clear()
+    model.PREP_CACHE.clear()
     return fast, ref
 
 
@@ -65,8 +64,8 @@ def test_defective_aero_matrix_keeps_the_reference_path():
     ts = TypicalSection()
     w, _ = modes(ts)
     ss = jones_discrete(ts, 0.05)
-    fl._PREP_CACHE.clear()
-    prep = fl._aero_prep(np.asarray(ss.A), ss.dt_star, "tustin")
+    model.PREP_CACHE.clear()
+    prep = model.aero_prep(np.asarray(ss.A), ss.dt_star, "tustin")
     assert prep.lam is None and prep.abar is not None
     r = flutter_analysis(w, ss, ts.c_ref, 0.0, sweep="constant-density", rho_ref=ts.rho,
                          v_max=4.0 * ts.semichord_m * ts.omega_alpha, rtol=1e-8)
@@ -92,19 +91,21 @@ def test_random_model_matched_sweep_fast_equals_reference(monkeypatch):
 
 def _model_and_points(seed: int = 3):
     """Fast-path model of a random ROM and three (V, q) sweep points."""
-    model = fl._make_model(OMEGA4, np.full(4, 0.01), 1.0, random_rom(seed), "tustin")
-    assert model.lam_a is not None
+    m = model.make_model(OMEGA4, np.full(4, 0.01), 1.0, random_rom(seed), "tustin")
+    assert m.lam_a is not None
     v = np.array([240.0, 240.0, 150.0])
     q = np.array([2000.0, 9000.0, 30000.0])
-    return model, v, q
+    return m, v, q
 
 
 def test_null_vectors_of_t_are_the_eigenvector_structural_parts():
     """T(s) null vectors = structural parts [xi; xi'/omega] of the full eigenvectors: MAC 1 to 1e-10 for every root."""
-    model, v, q = _model_and_points()
-    lam_f, xs_f, _ = fl._eig_batch(model, v, q)
-    full = dataclasses.replace(model, lam_a=None, res=None, base=None)
-    lam_r, xs_r, _ = fl._eig_batch(full, v, q)
+    m, v, q = _model_and_points()
+    ef = eigen.eig_batch(m, v, q)
+    lam_f, xs_f = ef.lam, ef.xs
+    full = dataclasses.replace(m, lam_a=None, res=None, base=None)
+    er = eigen.eig_batch(full, v, q)
+    lam_r, xs_r = er.lam, er.xs
     for i in range(v.size):
         for j in range(lam_r.shape[1]):
             jf = int(np.argmin(np.abs(lam_f[i] - lam_r[i, j])))
@@ -116,24 +117,24 @@ def test_null_vectors_of_t_are_the_eigenvector_structural_parts():
 
 def test_newton_root_converges_to_an_eigenvalue():
     """Newton on det T(s) from a start 1 % off converges to the coupled matrix's eigenvalue (1e-10 relative)."""
-    model, v, q = _model_and_points()
-    lam, _, _ = fl._eig_batch(model, v, q, vectors=False)
+    m, v, q = _model_and_points()
+    lam = eigen.eig_batch(m, v, q, vectors=False).lam
     for i in range(v.size):
         osc = lam[i][(lam[i].imag > 10.0) & (np.abs(lam[i]) < 600.0)]
         for s_true in osc:
-            s = fl._newton_root(model, v[i] / model.c_ref, q[i], s_true * (1.0 + 0.01j), abs(s_true))
+            s = eigen.newton_root(m, v[i] / m.c_ref, q[i], s_true * (1.0 + 0.01j), abs(s_true))
             assert abs(s - s_true) <= 1e-10 * abs(s_true)
 
 
 def test_aero_preparation_is_cached_per_matrix_and_checks_repeat():
     """Equal A matrices share one preparation; an unstable A is refused every time (failures are not cached)."""
     rom = random_rom(0)
-    fl._PREP_CACHE.clear()
-    p1 = fl._aero_prep(np.array(rom.A), 0.1, "tustin")
-    assert fl._aero_prep(np.array(rom.A).copy(), 0.1, "tustin") is p1
-    assert fl._aero_prep(np.array(rom.A), 0.05, "tustin") is not p1  # dt* is part of the key
+    model.PREP_CACHE.clear()
+    p1 = model.aero_prep(np.array(rom.A), 0.1, "tustin")
+    assert model.aero_prep(np.array(rom.A).copy(), 0.1, "tustin") is p1
+    assert model.aero_prep(np.array(rom.A), 0.05, "tustin") is not p1  # dt* is part of the key
     assert p1.radius == pytest.approx(0.92, rel=1e-12)
     bad = 1.01 * np.eye(2)
     for _ in range(2):
         with pytest.raises(ValueError, match="unstable"):
-            fl._aero_prep(bad, 0.1, "tustin")
+            model.aero_prep(bad, 0.1, "tustin")

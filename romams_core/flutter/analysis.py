@@ -1,0 +1,120 @@
+"""flutter_analysis: the flutter search at one Mach number (orchestrates model, sweep, tracking, crossing)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .crossing import first_unstable, make_bracket, refine_crossing
+from .inputs import check_flutter_inputs, check_search_options
+from .model import make_model
+from .point import frequency_separation, modal_shares, single_mode_unstable
+from .result import FlutterResult, no_flutter_fields
+from .sweeps import DEFAULT_ALTITUDE_REF_M, Sweep, eas, make_sweep, resolve_reference
+from .tracking import Branches, Tracker
+
+
+def flutter_analysis(
+    omega: np.ndarray,
+    aero: Any,
+    c_ref: float,
+    mach: float,
+    *,
+    sweep: str = "constant-speed",
+    coupling: str = "tustin",
+    zeta: np.ndarray | float | None = None,
+    altitude_ref_m: float = DEFAULT_ALTITUDE_REF_M,
+    rho_ref: float | None = None,
+    a_ref: float | None = None,
+    v_max: float | None = None,
+    q_max: float | None = None,
+    altitude_range_m: tuple[float, float] = (0.0, 20_000.0),
+    n_points: int = 12,
+    sdoff_share: float = 0.9,
+    sdoff_q_factor: float = 1.1,
+    track_weight: float = 0.5,
+    rtol: float = 1e-4,
+) -> FlutterResult:
+    """Flutter search at one Mach number for structure ``omega`` [k] (rad/s) and modal aero ROM ``aero``.
+
+    ``aero`` has A, B, C, D, dt_star (discrete, t* = t V / c_ref, inputs xi, outputs f = F / q); ``c_ref`` in m.
+    Reference state: rho_ref, a_ref default to ISA at ``altitude_ref_m`` (10 km). Ranges: ``v_max`` (m/s,
+    constant-density; default 3 M a_ref, at Mach 0 omega_max c_ref, see sweeps.default_v_max), ``q_max`` (Pa,
+    constant-speed; default 4 x 0.5 rho_ref (M a_ref)^2), ``altitude_range_m`` (matched). ``n_points`` coarse
+    sweep points (the tracker refines where needed, so the flutter point does not depend on it); the crossing
+    is refined with brentq to ``rtol`` relative. SDOFF when the flutter vector's largest modal share is
+    >= ``sdoff_share`` AND that mode alone is unstable at q <= ``sdoff_q_factor`` q_f. Reports the TRUE speed
+    ``v_flutter_m_s`` and the equivalent airspeed ``v_eas_m_s``; no flutter in range is a result with
+    flutter_found False. Invalid input raises romams_core.errors.InputError naming the field.
+    """
+    om, zt, c_ref, mach = check_flutter_inputs(omega, zeta, c_ref, mach, sweep)
+    check_search_options(coupling, n_points, sdoff_share, sdoff_q_factor, rtol)
+    model = make_model(om, zt, c_ref, aero, coupling)
+    rho_ref, a_ref, h_ref = resolve_reference(altitude_ref_m, rho_ref, a_ref)
+    sw = make_sweep(sweep, mach, om, c_ref, rho_ref, a_ref, v_max, q_max, altitude_range_m)
+    tracker = Tracker(model, sw, track_weight)
+    grid = sw.grid(int(n_points))
+    states = tracker.track(grid)
+    lam_path = np.array([st.lam for st in states])
+    g_path = 2.0 * lam_path.real / np.abs(lam_path)
+    head: dict[str, Any] = dict(mach=mach, sweep=sweep, coupling=coupling, rho_ref=rho_ref, a_ref=a_ref,
+                                c_ref=c_ref, dt_star=model.dt_star, altitude_ref_m=h_ref,
+                                **_vg_data(sw, grid, lam_path, g_path), modal_share=np.zeros(om.size))
+    i_cross, first = first_unstable(g_path)
+    if i_cross >= grid.size:
+        return FlutterResult(**no_flutter_fields(), message=f"no flutter up to {sw.range_text()}", **head)
+    br = make_bracket(tracker, grid, states, i_cross, first)
+    p_f, branch, st_f = refine_crossing(tracker, br, float(rtol))
+    omega_path = np.vstack([lam_path.imag[:i_cross], st_f.lam.imag[None, :]])
+    point = _flutter_point(tracker, p_f, branch, st_f, omega_path, float(sdoff_share), float(sdoff_q_factor),
+                           max(float(grid[0]), p_f) if i_cross == 0 else p_f)
+    if p_f == br.lo_p:
+        point["message"] = "structural branch already unstable at the start of the sweep; " + point["message"]
+    head["modal_share"] = point.pop("modal_share")
+    return FlutterResult(**point, **head)
+
+
+def _vg_data(sw: Sweep, grid: np.ndarray, lam_path: np.ndarray, g_path: np.ndarray) -> dict[str, np.ndarray]:
+    """V-g / V-omega data of the reported grid points."""
+    v_g, rho_g = sw.cond(grid)
+    q_g = 0.5 * rho_g * v_g**2
+    keep = sw.keep(grid)
+    return dict(v=sw.speed_axis(v_g, q_g)[keep], v_eas=eas(q_g)[keep], q=q_g[keep], rho=rho_g[keep],
+                altitude=sw.altitude(grid)[keep], g=g_path[keep], zeta=-0.5 * g_path[keep],
+                omega=lam_path.imag[keep])
+
+
+def _flutter_point(tracker: Tracker, p_f: float, branch: int, st_f: Branches, omega_path: np.ndarray,
+                   sdoff_share: float, sdoff_q_factor: float, p_chk_min: float) -> dict[str, Any]:
+    """Flutter-point fields of the result (speeds, frequency, shares, SDOFF, message)."""
+    sw, m = tracker.sweep, tracker.m
+    share = modal_shares(st_f, branch)
+    energy_share = float(share.max())
+    v_f, rho_f = (float(x[0]) for x in sw.cond(np.array([p_f])))
+    q_f = 0.5 * rho_f * v_f**2
+    single = False
+    if energy_share >= sdoff_share:
+        p_chk = max(sw.p_check(p_f, q_f, sdoff_q_factor), p_chk_min)
+        single = single_mode_unstable(m, sw, int(np.argmax(share)), p_chk, tracker.weight)
+    lam_f = complex(st_f.lam[branch])
+    omega_f = abs(lam_f.imag)
+    alt = sw.altitude(np.array([max(p_f, 0.0)]))[0]
+    message = ""
+    if p_f < 0:
+        message += f"unstable already at the top altitude {sw.altitude(np.array([0.0]))[0]:.6g} m " \
+                   "(flutter altitude above the range); "
+    if omega_f <= 1e-6 * float(m.omega.max()):
+        message += "zero-frequency crossing (static divergence); "
+    v_eas = float(eas(np.array(q_f)))
+    message += (f"flutter on structural branch {branch + 1} at q = {q_f:.6g} Pa, true airspeed V = {v_f:.6g} m/s "
+                f"(EAS {v_eas:.6g} m/s), omega = {omega_f:.6g} rad/s ({sw.name}, {m.coupling})")
+    return dict(
+        flutter_found=True, v_flutter_m_s=v_f, v_true_m_s=v_f, v_eas_m_s=v_eas, omega_flutter_rad_s=omega_f,
+        q_flutter_pa=q_f, rho_flutter=rho_f, altitude_m=None if math.isnan(alt) else float(alt),
+        k_flutter=omega_f * 0.5 * m.c_ref / v_f, flutter_mode=branch + 1,
+        sdoff=bool(energy_share >= sdoff_share and single), single_mode_unstable=bool(single),
+        energy_share=energy_share, frequency_separation=frequency_separation(omega_path, branch),
+        modal_share=share, message=message,
+    )

@@ -1,0 +1,153 @@
+"""The first zero crossing of Re(s) on a structural branch, refined with ``scipy.optimize.brentq``.
+
+Every branch that first goes unstable (g > 1e-9) inside the first unstable interval is refined; the lowest
+crossing wins. With the fast Tustin path the branch eigenvalue inside brentq is the Newton root of det T(s),
+started from the linear interpolation between the nearest points of that branch known on either side; each
+refined crossing is then checked against one full eigen-solve (the eigenvalue nearest the linear prediction
+must be the Newton root to 1e-8), else brentq reruns on full eigen-solves.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .eigen import EigData, NoRoot, newton_root
+from .tracking import Branches, Tracker
+
+G_UNSTABLE = 1e-9  # g above which a branch counts as unstable
+
+
+@dataclass
+class Bracket:
+    """The interval [lo_p, hi_p] with the tracked states at its ends and the candidate branches."""
+
+    lo_p: float
+    lo_state: Branches
+    hi_p: float
+    hi_state: Branches
+    cands: list[int]
+    known: dict[int, list[tuple[float, complex]]] = field(default_factory=dict)
+    roots: dict[tuple[int, float], complex] = field(default_factory=dict)
+
+    def pred(self, p: float, j: int) -> complex:
+        """Linear prediction of branch j's eigenvalue at p between the bracket ends."""
+        a, b = self.lo_state.lam[j], self.hi_state.lam[j]
+        return complex(a + (p - self.lo_p) / (self.hi_p - self.lo_p) * (b - a))
+
+
+def first_unstable(g_path: np.ndarray) -> tuple[int, np.ndarray]:
+    """(index of the first grid point where some branch is unstable (n if none), per-branch first index)."""
+    unstable = g_path > G_UNSTABLE
+    first = np.where(unstable.any(axis=0), unstable.argmax(axis=0), g_path.shape[0])
+    return int(first.min()), first
+
+
+def make_bracket(tracker: Tracker, grid: np.ndarray, states: list[Branches], i_cross: int,
+                 first: np.ndarray) -> Bracket:
+    """Bracket of the first crossing; one before the first grid point starts just after q = 0 (a branch of
+    zero structural damping has Re(s) = 0 exactly at q = 0), at a sweep-independent offset."""
+    if i_cross == 0:
+        sw = tracker.sweep
+        lo_p = sw.p_start + 1e-6 * min(sw.first_fixed, float(grid[0]) - sw.p_start)
+        e = tracker.eig(np.array([lo_p]))
+        lo_state = tracker.step(tracker.start(), sw.p_start, lo_p, e)
+    else:
+        lo_p, lo_state = float(grid[i_cross - 1]), states[i_cross - 1]
+    cands = [int(j) for j in np.nonzero(first == i_cross)[0]]
+    return Bracket(lo_p, lo_state, float(grid[i_cross]), states[i_cross], cands)
+
+
+def _re_eig(tracker: Tracker, br: Bracket) -> Callable[[float, int], float]:
+    """Re(s) of a branch at p from a full eigen-solve, matched to the bracket ends' linear prediction."""
+
+    def f(p: float, j: int) -> float:
+        if p == br.lo_p:
+            return float(br.lo_state.lam[j].real)
+        if p == br.hi_p:
+            return float(br.hi_state.lam[j].real)
+        e = tracker.eig(np.array([p]), vectors=False)
+        lam, per = e.lam[0], float(e.period[0])
+        pred = br.pred(p, j)
+        if math.isfinite(per):
+            lam = lam + 1j * per * np.round((pred.imag - lam.imag) / per)
+        return float(lam[int(np.nanargmin(np.abs(lam - pred)))].real)
+
+    return f
+
+
+def _re_newton(tracker: Tracker, br: Bracket) -> Callable[[float, int], float]:
+    """Re(s) of a branch at p from a Newton root of det T(s) (no eigen-solve); raises NoRoot."""
+    m = tracker.m
+
+    def f(p: float, j: int) -> float:
+        if p == br.lo_p:
+            return float(br.lo_state.lam[j].real)
+        if p == br.hi_p:
+            return float(br.hi_state.lam[j].real)
+        pts = br.known.setdefault(j, [(br.lo_p, complex(br.lo_state.lam[j])),
+                                      (br.hi_p, complex(br.hi_state.lam[j]))])
+        pa, sa = max((x for x in pts if x[0] < p), key=lambda x: x[0])
+        pb, sb = min((x for x in pts if x[0] > p), key=lambda x: x[0])
+        start = sa + (p - pa) / (pb - pa) * (sb - sa)
+        v, rho = tracker.sweep.cond(np.array([p]))
+        s = newton_root(m, float(v[0]) / m.c_ref, 0.5 * float(rho[0]) * float(v[0]) ** 2, start,
+                        max(abs(start), float(m.omega[j])))
+        br.roots[(j, p)] = s
+        pts.append((p, s))
+        return s.real
+
+    return f
+
+
+def _refine(br: Bracket, f: Callable[[float, int], float], rtol: float) -> list[float]:
+    """Crossing p of each candidate branch with the Re(s) function f (brentq to rtol)."""
+    scale = max(abs(br.hi_p), abs(br.lo_p), 1e-300)
+    out = []
+    for jb in br.cands:
+        if f(br.lo_p, jb) > 0:
+            out.append(br.lo_p)
+        else:
+            out.append(brentq(f, br.lo_p, br.hi_p, args=(jb,), xtol=rtol * scale * 1e-3, rtol=max(rtol, 1e-14)))
+    return out
+
+
+def _refine_fast(tracker: Tracker, br: Bracket, rtol: float) -> tuple[list[float], EigData | None] | None:
+    """Newton-based refinement, checked against one full eigen-solve per crossing; None when it fails."""
+    try:
+        p_js = _refine(br, _re_newton(tracker, br), rtol)
+    except NoRoot:
+        return None
+    chk = [(jb, pj) for jb, pj in zip(br.cands, p_js, strict=True) if pj != br.lo_p]
+    eig_f = None
+    if chk:
+        e = tracker.eig(np.array([pj for _, pj in chk]))
+        for i, (jb, pj) in enumerate(chk):
+            s = br.roots.get((jb, pj))
+            lam = e.lam[i]
+            near = lam[int(np.nanargmin(np.abs(lam - br.pred(pj, jb))))]
+            if s is None or abs(near - s) > 1e-8 * max(abs(s), float(tracker.m.omega[jb])):
+                return None
+            if pj == min(p_js):
+                eig_f = e.point(i)
+    return p_js, eig_f
+
+
+def refine_crossing(tracker: Tracker, br: Bracket, rtol: float) -> tuple[float, int, Branches]:
+    """(p_f, flutter branch index, branch state at p_f) of the lowest crossing inside the bracket."""
+    res = _refine_fast(tracker, br, rtol) if tracker.m.lam_a is not None else None
+    if res is None:
+        p_js, eig_f = _refine(br, _re_eig(tracker, br), rtol), None
+    else:
+        p_js, eig_f = res
+    p_f, branch = math.inf, -1
+    for jb, pj in zip(br.cands, p_js, strict=True):
+        if pj < p_f:
+            p_f, branch = pj, jb
+    e_f = tracker.eig(np.array([p_f])) if eig_f is None else eig_f
+    st_f = tracker.step(br.lo_state, br.lo_p, p_f, e_f)
+    return p_f, branch, st_f

@@ -1,0 +1,249 @@
+"""Batched eigen-solves of the coupled system: eigenvalues, structural vectors, structural content, Newton roots.
+
+For n sweep points (V [n], q [n]) one call stacks the n coupled matrices and solves them with one LAPACK
+call. Every eigenvalue s (rad/s) comes with
+
+- its structural eigenvector part [xi; xi'/omega], unit norm (``xs`` [n, 2k, nt]), which the branch tracker
+  compares by MAC (aero states are excluded: their scaling is arbitrary);
+- its structural content (``content`` [n, nt], 0..1): the share of the structural states in the eigenvalue's
+  participation, |P_s| / (|P_s| + |P_a|) with P_s = sum over structural states of w_i v_i (w the left, v the
+  right eigenvector, w^H v = 1) and P_a the same over the aero states. Participations are invariant under any
+  change of the aero state coordinates, so the measure does not depend on the ROM's realization. A structural
+  root has content near 1; an aerodynamic lag root (s ~ (V / c_ref) lam_a, the ROM's own dynamics, moved little
+  by the structure) has content near 0.
+
+Fast path (Tustin, diagonalizable aero matrix): LAPACK eigenvalues only; for each eigenvalue the right and
+left null vectors xi, eta of T(s) = s^2 I + s G + K - q H(s) (one inverse-iteration step each, k x k) give
+xs = [xi; s xi] and, with the aero states eliminated, P_s = eta^H (2 s I + G) xi / (eta^H T'(s) xi) and
+P_a = -q eta^H H'(s) xi / (eta^H T'(s) xi). Reference path (defective aero matrix, zero-order hold): LAPACK
+eigenvectors V and the left ones from V^-1.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.linalg.lapack
+
+from .model import Model
+
+_zgesv = scipy.linalg.lapack.zgesv
+
+
+@dataclass
+class EigData:
+    """Eigen-data of n sweep points: s [n, nt] (rad/s, NaN for discarded ZOH roots), structural vectors
+    [n, 2k, nt] (None when not asked for), structural content [n, nt] (None without vectors) and the ZOH alias
+    period [n] (inf for Tustin)."""
+
+    lam: np.ndarray
+    xs: np.ndarray | None
+    content: np.ndarray | None
+    period: np.ndarray
+
+    def point(self, i: int) -> EigData:
+        """The data of sweep point i alone (leading axis of length 1)."""
+        sl = slice(i, i + 1)
+        return EigData(self.lam[sl], None if self.xs is None else self.xs[sl],
+                       None if self.content is None else self.content[sl], self.period[sl])
+
+
+@functools.lru_cache(maxsize=16)
+def _rhs(k: int) -> np.ndarray:
+    """Fixed generic complex start vector [k, 1] of the inverse iteration."""
+    return ((1.0 + 0.37 * np.arange(k)) * np.exp(0.91j * np.arange(k)))[:, None]
+
+
+def normalized(xs: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Structural eigenvector parts [n, 2k, nt] scaled to [xi; xi'/omega] with unit norm (zero columns stay 0)."""
+    k = omega.size
+    xs = np.concatenate([xs[:, :k], xs[:, k:] / omega[None, :, None]], axis=1)
+    nrm = np.linalg.norm(xs, axis=1, keepdims=True)
+    return xs / np.where(nrm > 0, nrm, 1.0)
+
+
+def _pair_selection(lam: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Eigenvalues to solve for: the first member of each LAPACK conjugate pair (when listed pairwise)."""
+    neg = lam.imag < 0
+    paired = np.count_nonzero(neg[:, 1:] & (lam[:, 1:] == lam[:, :-1].conj())) == np.count_nonzero(neg)
+    return (~neg if paired else np.ones(lam.shape, bool)), paired
+
+
+def struct_vectors(
+    m: Model, lam: np.ndarray, v: np.ndarray, q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Normalized structural parts [xi; xi'/omega] [n, 2k, nt] and structural content [n, nt] of the Tustin
+    eigenvalues lam [n, nt] from the null vectors of T(s) (module docstring).
+
+    xi is found by one step of inverse iteration from a fixed generic vector: the null direction dominates by
+    sigma_(k-1) / sigma_min, i.e. to rounding, since s is an eigenvalue; likewise eta with T(s)^H. LAPACK lists
+    a complex pair consecutively, positive imaginary part first; the second member takes the conjugate vector.
+    None when ill-defined (non-finite, T exactly singular): the caller then uses the full eigenvectors.
+    """
+    assert m.lam_a is not None and m.res is not None
+    k = m.k
+    sel, paired = _pair_selection(lam)
+    rows = np.nonzero(sel)[0]
+    ss = lam[sel]
+    with np.errstate(all="ignore"):
+        vc = (v / m.c_ref)[rows]
+        r = 1.0 / ((ss / vc)[:, None] - m.lam_a)  # vc / (s - vc lam_i) [M, na]
+        t = (m.d.ravel() + r @ m.res) * (-q[rows])[:, None]  # [M, k*k]
+        t[:, :: k + 1] += (ss[:, None] + 2.0 * m.zeta * m.omega) * ss[:, None] + m.omega**2
+        t3 = t.reshape(-1, k, k)
+        rhs = np.broadcast_to(_rhs(k), (ss.size, k, 1))
+        try:
+            y = np.linalg.solve(t3, rhs)[..., 0]
+            z = np.linalg.solve(np.conj(np.swapaxes(t3, 1, 2)), rhs)[..., 0]
+        except np.linalg.LinAlgError:
+            return None
+        x = np.concatenate([y, (ss[:, None] / m.omega) * y], axis=1)
+        x /= np.linalg.norm(x, axis=1, keepdims=True)
+        ps = np.abs(np.einsum("mi,mi->m", z.conj(), (2.0 * ss[:, None] + 2.0 * m.zeta * m.omega) * y))
+        dta = ((r * r) @ m.res).reshape(-1, k, k) * (q[rows] / vc)[:, None, None]  # -q dH/ds
+        pa = np.abs(np.einsum("mi,mi->m", z.conj(), np.einsum("mij,mj->mi", dta, y)))
+        cont = ps / (ps + pa)
+    if not (np.isfinite(x).all() and np.isfinite(cont).all()):
+        return None
+    out = np.empty(lam.shape + (2 * k,), complex)
+    out[sel] = x
+    content = np.empty(lam.shape)
+    content[sel] = cont
+    if paired:
+        ip, jp = np.nonzero(~sel)
+        out[ip, jp] = out[ip, jp - 1].conj()
+        content[ip, jp] = content[ip, jp - 1]
+    return np.swapaxes(out, 1, 2), content
+
+
+def _full_vectors(vec: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Normalized structural parts and structural content of full LAPACK eigenvectors vec [n, N, N]."""
+    n2 = 2 * omega.size
+    with np.errstate(all="ignore"):
+        try:
+            wl = np.linalg.inv(vec)  # rows: left eigenvectors with w^H v = 1
+        except np.linalg.LinAlgError:
+            wl = np.linalg.pinv(vec)
+        part = np.swapaxes(wl, 1, 2) * vec  # [n, state, eig]: w_state v_state
+        ps = np.abs(part[:, :n2].sum(axis=1))
+        pa = np.abs(part[:, n2:].sum(axis=1))
+        content = np.where(ps + pa > 0, ps / (ps + pa), 0.0)
+    return normalized(vec[:, :n2, :], omega), np.nan_to_num(content)
+
+
+def _tustin_matrices(m: Model, v: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Coupled first-order matrices [n, N, N] of the Tustin coupling (states [xi; xi'; x])."""
+    k, na = m.k, m.na
+    n2 = 2 * k
+    n = n2 + na
+    if m.base is None:  # the sweep-independent entries
+        m.base = np.zeros((n, n))
+        m.base[:k, k:n2] = np.eye(k)
+        m.base[k:n2, :k] = -np.diag(m.omega**2)
+        m.base[k:n2, k:n2] = -np.diag(2.0 * m.zeta * m.omega)
+    vc = (v / m.c_ref)[:, None, None]
+    qq = q[:, None, None]
+    ac = np.empty((v.size, n, n))
+    ac[:] = m.base
+    ac[:, k:n2, :k] += qq * m.d
+    ac[:, k:n2, n2:] = qq * m.c
+    ac[:, n2:, :k] = vc * m.b
+    ac[:, n2:, n2:] = vc * m.a
+    return ac
+
+
+def _zoh(m: Model, v: np.ndarray, q: np.ndarray, vectors: bool) -> EigData:
+    """Zero-order hold: exact structure at dt = dt* c_ref / V, discrete coupling, s = ln(z) / dt."""
+    k, na = m.k, m.na
+    n2 = 2 * k
+    nv = v.size
+    dt = m.dt_star * m.c_ref / v
+    aug = np.zeros((nv, n2 + k, n2 + k))
+    aug[:, :k, k:n2] = np.eye(k)
+    aug[:, k:n2, :k] = -np.diag(m.omega**2)
+    aug[:, k:n2, k:n2] = -np.diag(2.0 * m.zeta * m.omega)
+    aug[:, k:n2, n2:] = np.eye(k)
+    aug *= dt[:, None, None]
+    e = scipy.linalg.expm(aug)
+    phi, gam = e[:, :n2, :n2], e[:, :n2, n2:]
+    qq = q[:, None, None]
+    ad = np.zeros((nv, n2 + na, n2 + na))
+    ad[:, :n2, :n2] = phi
+    ad[:, :n2, :k] += qq * (gam @ m.d)
+    ad[:, :n2, n2:] = qq * (gam @ m.c)
+    ad[:, n2:, :k] = m.b
+    ad[:, n2:, n2:] = m.a
+    xs = content = None
+    if vectors:
+        z, vec = np.linalg.eig(ad)
+        xs, content = _full_vectors(vec, m.omega)
+    else:
+        z = np.linalg.eigvals(ad)
+    z = z.astype(complex)
+    small = np.abs(z) < 1e-10
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.log(np.where(small, 1.0, z)) / dt[:, None]
+    lam[small] = np.nan
+    if content is not None:
+        content[small] = 0.0
+    return EigData(lam, xs, content, 2.0 * np.pi / dt)
+
+
+def eig_batch(m: Model, v: np.ndarray, q: np.ndarray, vectors: bool = True) -> EigData:
+    """Eigen-data of the coupled system at speeds v [n] (m/s) and dynamic pressures q [n] (Pa)."""
+    if m.coupling != "tustin":
+        return _zoh(m, v, q, vectors)
+    ac = _tustin_matrices(m, v, q)
+    per = np.full(v.size, np.inf)
+    if not vectors:
+        return EigData(np.linalg.eigvals(ac).astype(complex), None, None, per)
+    if m.lam_a is not None:
+        lam = np.linalg.eigvals(ac).astype(complex)
+        sv = struct_vectors(m, lam, v, q)
+        if sv is not None:
+            return EigData(lam, sv[0], sv[1], per)
+    lam, vec = np.linalg.eig(ac)
+    xs, content = _full_vectors(vec, m.omega)
+    return EigData(lam.astype(complex), xs, content, per)
+
+
+class NoRoot(Exception):
+    """Newton on det T(s) did not converge (the caller falls back to eigen-solves)."""
+
+
+def newton_root(m: Model, vc: float, q: float, s0: complex, scale: float, maxit: int = 30) -> complex:
+    """Eigenvalue s (rad/s) of the Tustin coupled system at V/c_ref = vc (1/s), q (Pa) by Newton on det T(s) from s0.
+
+    Step: s <- s - 1 / tr(T^-1 dT/ds) (d ln det T / ds), dT/ds = 2 s I + G + (q / vc) sum_i res_i r_i^2 with
+    r_i = vc / (s - vc lam_i); quadratic near a simple root, so a step below 1e-7 ``scale`` leaves an error of
+    order 1e-14 ``scale``: converged. Raises NoRoot otherwise.
+    """
+    assert m.lam_a is not None and m.res is not None
+    k = m.k
+    lam_a, res = m.lam_a, m.res
+    g = 2.0 * m.zeta * m.omega
+    kd = m.omega**2
+    qd = -q * m.d.ravel()
+    s = complex(s0)
+    with np.errstate(all="ignore"):
+        for _ in range(maxit):
+            r = 1.0 / (s / vc - lam_a)
+            t = qd - q * (r @ res)
+            t[:: k + 1] += s * s + g * s + kd
+            dt = (q / vc) * ((r * r) @ res)
+            dt[:: k + 1] += 2.0 * s + g
+            _, _, x, info = _zgesv(t.reshape(k, k), dt.reshape(k, k))
+            if info > 0:
+                return s  # T(s) exactly singular: s is an eigenvalue
+            tr = complex(x.trace())
+            if info < 0 or not (math.isfinite(tr.real) and math.isfinite(tr.imag)) or tr == 0:
+                break
+            step = 1.0 / tr
+            s -= step
+            if abs(step) <= 1e-7 * scale:
+                return s
+    raise NoRoot(f"no convergence from {s0}")

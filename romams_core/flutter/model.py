@@ -1,0 +1,128 @@
+"""The coupled aeroelastic model: aero preparation (cached per ROM), Tustin or zero-order-hold form.
+
+Tustin (default): the discrete aero model is converted once to continuous time in t* by the bilinear map
+(``romams_core.statespace.tustin_matrices``, the one implementation); in physical time its states obey
+dx/dt = (V / c_ref)(Abar x + Bbar xi). When Abar is reliably diagonalizable (eigenvector condition number below
+``DIAG_COND_MAX``) its eigen-decomposition is kept, so that the aero transfer matrix in physical time is
+H(s) = Dbar + sum_i res_i vc / (s - vc lam_i) (vc = V / c_ref) and the eigen-solver can work with the k x k
+matrix T(s) = s^2 I + s G + K - q H(s) (``eigen.py``). Zero-order hold: the discrete matrices are kept as they are.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from romams_core.errors import InputError
+from romams_core.statespace import tustin_lu, tustin_matrices
+
+from .inputs import aero_matrices
+
+
+@dataclass(frozen=True)
+class AeroPrep:
+    """Structure-independent data of one aero state matrix A (cached per A).
+
+    The ROMs of a wing are trained once in basis coordinates; per structure only B, C, D change
+    (to_modal), so the spectral-radius check, the Tustin factorization and the eigen-decomposition of the
+    continuous aero matrix are computed once per ROM.
+    """
+
+    radius: float  # spectral radius of A
+    lu: Any  # LU factors of I + A (Tustin), None for zoh or na = 0
+    abar: np.ndarray | None  # continuous aero matrix in t* (Tustin)
+    lam: np.ndarray | None  # eigenvalues of abar [na] (None: not reliably diagonalizable)
+    w: np.ndarray | None  # eigenvectors of abar [na, na]
+    wi: np.ndarray | None  # inverse of w
+
+
+PREP_CACHE: dict[tuple[Any, ...], AeroPrep] = {}
+PREP_CACHE_SIZE = 64
+DIAG_COND_MAX = 1e6  # eigenvector condition number above which the fast (diagonalized) path is not used
+
+
+def aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> AeroPrep:
+    """Cached structure-independent data of aero matrix ``a`` (validated: stable, Tustin-convertible)."""
+    key = (coupling, float(dt_star), a.shape, a.tobytes())
+    prep = PREP_CACHE.get(key)
+    if prep is not None:
+        return prep
+    na = a.shape[0]
+    rad = float(np.max(np.abs(np.linalg.eigvals(a)))) if na else 0.0
+    if rad >= 1.0:
+        raise InputError("aero.A", f"unstable aerodynamic model (spectral radius {rad:.6f} >= 1)")
+    lu = abar = lam = w = wi = None
+    if coupling == "tustin":
+        if na:
+            lu = tustin_lu(a, "aero.A")
+            abar = tustin_matrices(a, np.zeros((na, 0)), np.zeros((0, na)), np.zeros((0, 0)), dt_star, lu=lu)[0]
+            lam, w = np.linalg.eig(abar)
+            if np.all(np.isfinite(w)) and np.linalg.cond(w) < DIAG_COND_MAX:
+                lam, wi = lam.astype(complex), np.linalg.inv(w).astype(complex)
+                w = w.astype(complex)
+            else:
+                lam = w = None
+        else:
+            abar, lam = np.zeros((0, 0)), np.zeros(0, complex)
+            w, wi = np.zeros((0, 0), complex), np.zeros((0, 0), complex)
+    prep = AeroPrep(rad, lu, abar, lam, w, wi)
+    if len(PREP_CACHE) >= PREP_CACHE_SIZE:
+        PREP_CACHE.pop(next(iter(PREP_CACHE)))
+    PREP_CACHE[key] = prep
+    return prep
+
+
+@dataclass
+class Model:
+    """Prepared coupling data of one structure and one aero ROM."""
+
+    k: int
+    na: int
+    omega: np.ndarray
+    zeta: np.ndarray
+    c_ref: float
+    dt_star: float
+    coupling: str
+    a: np.ndarray  # aero matrices in the form the coupling uses (CT for tustin, DT for zoh)
+    b: np.ndarray
+    c: np.ndarray
+    d: np.ndarray
+    # diagonalized aero part (Tustin only; None: use the full eigenvectors): a = W diag(lam_a) W^-1 and the
+    # pole residues res[i] = (c W)[:, i] (W^-1 b)[i, :] flattened [na, k*k], so
+    # c (sI - a)^-1 b = sum_i res[i] / (s - lam_a[i])
+    lam_a: np.ndarray | None = None
+    res: np.ndarray | None = None
+    base: np.ndarray | None = None  # sweep-independent part of the coupled matrix (Tustin), built on first use
+
+    def submodel(self, j: int) -> Model:
+        """The 1-mode model of structural mode j with its own diagonal aero terms."""
+        return Model(1, self.na, self.omega[[j]], self.zeta[[j]], self.c_ref, self.dt_star, self.coupling, self.a,
+                     self.b[:, [j]], self.c[[j], :], self.d[[j]][:, [j]], self.lam_a,
+                     None if self.res is None else self.res[:, [j * self.k + j]])
+
+
+def make_model(om: np.ndarray, zt: np.ndarray, c_ref: float, aero: Any, coupling: str) -> Model:
+    """Validated coupling data of structure (omega [k] rad/s, zeta [k]) and discrete aero model ``aero``."""
+    k = om.size
+    a, b, c, d, dt_star = aero_matrices(aero, k)
+    prep = aero_prep(a, dt_star, coupling)
+    lam_a = res = None
+    if coupling == "tustin":
+        abar = None if prep.abar is None else prep.abar.copy()
+        a, b, c, d = tustin_matrices(a, b, c, d, dt_star, lu=prep.lu, abar=abar, field="aero.A")
+        if prep.lam is not None and prep.w is not None and prep.wi is not None:
+            lam_a, res = prep.lam, ((c @ prep.w).T[:, :, None] * (prep.wi @ b)[:, None, :]).reshape(-1, k * k)
+    return Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res)
+
+
+def tustin_to_continuous(
+    a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray, dt_star: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Bilinear (Tustin) map of a discrete model in t* (step dt_star) to continuous time in t* (balanced form).
+
+    Thin alias of ``romams_core.statespace.tustin_matrices`` (kept for callers of the flutter module).
+    """
+    return tustin_matrices(np.asarray(a, float), np.asarray(b, float), np.asarray(c, float), np.asarray(d, float),
+                           float(dt_star), field="aero.A")
