@@ -1,7 +1,7 @@
 """In-process ROM-AMS pipeline on the local store: wing -> basis -> ROMs per Mach -> flutter evaluation.
 
 The CLI (``romams basis/train/flutter/demo``) uses these functions; the service's Celery tasks do the
-same steps as jobs. Both read and write the one store (``romams.store``), so a basis or ROM built by
+same steps as jobs. Both read and write the one store (``romams.persistence``), so a basis or ROM built by
 one is found by the other (ROM identity = solver, ARX orders and training options, as in the API).
 """
 
@@ -14,13 +14,16 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from romams_core.basis import Basis, build_basis, build_basis_for_wing, snapshot
 from romams_core.mesh import StandardMesh, standard_mesh
 from romams_core.wing import WingDefinition, template
+
+if TYPE_CHECKING:
+    from romams.persistence import Store
 
 Log = Callable[[str], None]
 
@@ -33,13 +36,13 @@ def _stderr(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
-def resolve_wing(store: Any, name: str) -> tuple[int, WingDefinition]:
+def resolve_wing(store: Store, name: str) -> tuple[int, WingDefinition]:
     """(id, wing) of a stored wing by name or id, else the template of that name stored under its name."""
-    found = store.find_wing(name)
+    found = store.wings.find(name)
     if found is not None:
         return int(found[0]), found[1]
     wing = template(name)  # ValueError naming the unknown template
-    return int(store.ensure_wing(wing)), wing
+    return int(store.wings.ensure(wing)), wing
 
 
 def basis_params(samples: int, modes: int, mac_threshold: float, max_basis: int, seed: int) -> dict[str, Any]:
@@ -56,7 +59,7 @@ def own_mode_basis(wing: WingDefinition, modes: int) -> Basis:
 
 
 def ensure_basis(
-    store: Any,
+    store: Store,
     wing_id: int,
     wing: WingDefinition,
     *,
@@ -69,9 +72,10 @@ def ensure_basis(
 ) -> tuple[int, Basis]:
     """(id, Basis): the stored basis built with these parameters, else build it now (saying so) and store it."""
     params = basis_params(samples, modes, mac_threshold, max_basis, seed)
-    for row in store.list_bases(wing_id):
-        if {k: row["params"].get(k) for k in params} == params:
-            return int(row["id"]), store.load_basis(int(row["id"]))
+    with store.unit_of_work() as uow:
+        for row in uow.bases.of_wing(wing_id):
+            if {k: row["params"].get(k) for k in params} == params:
+                return int(row["id"]), uow.bases.load(int(row["id"]))
     t0 = time.perf_counter()
     if not wing.design_variables:
         log(f"wing {wing.name!r} has no design variables: its own {modes} modes are its basis")
@@ -80,7 +84,7 @@ def ensure_basis(
         log(f"building the PCA basis of {wing.name!r}: {samples} LHS samples x {modes} modes, MAC >= {mac_threshold:g}")
         basis = build_basis_for_wing(wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
                                      max_basis=max_basis, seed=seed)
-    bid = store.save_basis(wing_id, basis, params)
+    bid = store.bases.save(wing_id, basis, params)
     log(f"basis {bid}: {basis.n_basis} shapes, worst sample MAC {basis.min_mac:.5f} ({time.perf_counter() - t0:.1f} s)")
     return int(bid), basis
 
@@ -131,7 +135,7 @@ def train_shapes(mesh: StandardMesh, shapes: np.ndarray, machs: Sequence[float],
 
 
 def ensure_roms(
-    store: Any,
+    store: Store,
     wing_id: int,
     wing: WingDefinition,
     basis_id: int,
@@ -147,7 +151,7 @@ def ensure_roms(
     out: dict[float, tuple[int, Any]] = {}
     missing = []
     for mach in machs:
-        found = store.find_rom(wing_id, basis_id, float(mach), ident)
+        found = store.roms.find(wing_id, basis_id, float(mach), ident)
         if found is None:
             missing.append(float(mach))
         else:
@@ -158,7 +162,7 @@ def ensure_roms(
         t0 = time.perf_counter()
         roms = train_shapes(standard_mesh(wing.planform), basis.shapes, missing, ident, processes)
         for mach, rom in zip(missing, roms, strict=True):
-            rid = store.save_rom(wing_id, basis_id, rom, ident)
+            rid = store.roms.save(wing_id, basis_id, rom, ident)
             out[mach] = (int(rid), rom)
             log(f"  M = {mach:g}: rom {rid}, validation NRMSE max {np.max(rom.validation_nrmse):.2e}, "
                 f"{rom.train_seconds:.1f} s")

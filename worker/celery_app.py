@@ -2,7 +2,7 @@
 
 Queues: ``training`` (long: basis and ROM training work) and ``evaluation`` (short: flutter
 evaluations). Reliability: late acknowledgement, reject-on-worker-lost (a task whose process dies is
-requeued), prefetch 1, and a redelivery cap counted in the job row (romams.store.Store.start_job).
+requeued), prefetch 1, and a redelivery cap counted in the job row (romams.persistence.jobs.JobRepository.start).
 The same tasks run embedded (SQLite + kombu's SQLAlchemy transport on a SQLite file, no server)
 and distributed (Redis broker + PostgreSQL).
 """
@@ -80,7 +80,7 @@ app = make_app()
 @worker_process_init.connect
 def _fresh_connections(**_: Any) -> None:
     """A forked pool process must not reuse the parent's database connections."""
-    from romams.store import dispose_engines
+    from romams.persistence import dispose_engines
 
     dispose_engines()
     from worker import tasks

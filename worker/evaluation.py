@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from romams.jobs import JobFailed, ProgressFn
+from romams.persistence import JobStatus, content_hash
 from romams.serialize import to_jsonable
-from romams.store import content_hash
 from worker.cache import LruCache
 from worker.celery_app import app
 from worker.tasks import (
@@ -46,7 +46,7 @@ def structure_modal(wing_id: int, design: list[float] | None, modes_id: int | No
     if modes_id is not None:
         from romams_core.modes_io import external_modal_result
 
-        modes = store().load_modes(int(modes_id))
+        modes = store().modes.load(int(modes_id))
         return external_modal_result(modes, load_mesh(wing_id))
     from romams_core.structure.modal import modal_analysis
 
@@ -149,7 +149,7 @@ def flutter_job(job_id: str) -> None:
         if h is not None:
             RESULTS.put(h, dict(summary))
         if keep:
-            summary["evaluation_id"] = store().save_evaluation(
+            summary["evaluation_id"] = store().evaluations.save(
                 job["wing_id"], result, summary=summary, request=p.get("request") or {}, basis_id=p["basis_id"],
                 method=p.get("method", "rom-ams"), content_hash=p.get("content_hash"))
         return summary
@@ -166,7 +166,7 @@ def evaluate_pms(wing_id: int, basis_id: int, rom_ids: list[list[float]], design
 
     basis = load_basis(basis_id)
     modal = structure_modal(wing_id, design, modes_id, int(basis.n_modes))
-    rows = {int(r["id"]): r for r in store().list_roms(wing_id, basis_id)}
+    rows = {int(r["id"]): r for r in store().roms.of_wing(wing_id, basis_id)}
     own: dict[float, Any] = {}
     for i, (mach, rid) in enumerate(rom_ids):
         ident = rows[int(rid)]["params"]
@@ -194,7 +194,7 @@ def flutter_pms_job(job_id: str) -> None:
         summary, result = evaluate_pms(job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"),
                                        p.get("modes_id"), progress)
         if p.get("store", True):
-            summary["evaluation_id"] = store().save_evaluation(
+            summary["evaluation_id"] = store().evaluations.save(
                 job["wing_id"], result, summary=summary, request=p.get("request") or {}, basis_id=p["basis_id"],
                 method="rom-pms")
         return summary
@@ -225,8 +225,8 @@ def flutter_chunk(job_id: str) -> None:
         return {"index": p["index"], "results": out}
 
     _run(job_id, body)
-    job = store().get_job(job_id)
-    if job and job["parent_id"] and job["status"] in ("succeeded", "failed"):
+    job = store().jobs.get(job_id)
+    if job and job["parent_id"] and job["status"] in (JobStatus.SUCCEEDED, JobStatus.FAILED):
         assemble_batch(job["parent_id"])
 
 
@@ -236,21 +236,21 @@ def assemble_batch(parent_id: str) -> None:
     kids = chunk_outcome(s, parent_id)
     if kids is None:
         return
-    done = [k for k in kids if k["status"] == "succeeded"]
-    s.update_job(parent_id, expect=("queued",), status="running")
-    s.set_progress(parent_id, len(done) / max(len(kids), 1), f"{len(done)}/{len(kids)} chunks done")
-    if len(done) == len(kids) and s.claim_stage(parent_id, "fanout", "finalize"):
+    done = [k for k in kids if k["status"] == JobStatus.SUCCEEDED]
+    s.jobs.update(parent_id, expect=(JobStatus.QUEUED,), status=JobStatus.RUNNING)
+    s.jobs.progress(parent_id, len(done) / max(len(kids), 1), f"{len(done)}/{len(kids)} chunks done")
+    if len(done) == len(kids) and s.jobs.claim_stage(parent_id, "fanout", "finalize"):
         results: list[Any] = []
         for k in sorted(done, key=lambda k: k["params"]["index"]):
             results.extend(k["result"]["results"])
-        s.finish_job(parent_id, "succeeded", result={"results": results, "n": len(results)}, message="done")
+        s.jobs.finish(parent_id, JobStatus.SUCCEEDED, result={"results": results, "n": len(results)}, message="done")
 
 
 @app.task(name="romams.evaluation.batch_finalize", acks_late=True, time_limit=_settings.evaluation_time_limit_s)
 def batch_finalize(job_id: str) -> None:
     """Re-run the batch assembly (sent by the stale-job sweeper if the assembling worker died)."""
     s = store()
-    if s.claim_stage(job_id, "finalize", "fanout"):
+    if s.jobs.claim_stage(job_id, "finalize", "fanout"):
         assemble_batch(job_id)
 
 

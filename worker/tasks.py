@@ -1,6 +1,6 @@
 """Celery tasks: thin wrappers that load inputs from the store, call romams_core and persist results.
 
-Every task takes one job id; the job row (romams.store) carries the parameters, progress and outcome.
+Every task takes one job id; the job row (romams.persistence) carries the parameters, progress and outcome.
 Basis jobs fan out: the parent samples the design space and creates chunk jobs of modal analyses
 (spread over the workers); the chunk that completes last claims the parent's "finalize" stage and
 sends the SVD task. Flutter batches fan out in chunks the same way.
@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from romams.jobs import JobFailed, ProgressFn, run_job, send
+from romams.persistence import JobStatus, Store, open_store
 from romams.settings import get_settings
-from romams.store import Store, open_store
 from worker.cache import LruCache
 from worker.celery_app import app
 
@@ -45,7 +45,7 @@ def _run(job_id: str, body: Any, **kw: Any) -> Any:
 def load_wing(wing_id: int) -> Any:
     """WingDefinition of a stored wing (cached)."""
     def load() -> Any:
-        found = store().find_wing(int(wing_id))
+        found = store().wings.find(int(wing_id))
         if found is None:
             raise JobFailed(f"wing {wing_id} not found")
         return found[1]
@@ -61,12 +61,12 @@ def load_mesh(wing_id: int) -> Any:
 
 def load_basis(basis_id: int) -> Any:
     """Basis by id (cached)."""
-    return OBJECTS.get_or_load(("basis", int(basis_id)), lambda: store().load_basis(int(basis_id)))
+    return OBJECTS.get_or_load(("basis", int(basis_id)), lambda: store().bases.load(int(basis_id)))
 
 
 def load_rom(rom_id: int) -> Any:
     """TrainedRom by id (cached; a ROM row never changes, a retrained one gets a new id)."""
-    return OBJECTS.get_or_load(("rom", int(rom_id)), lambda: store().load_rom(int(rom_id)))
+    return OBJECTS.get_or_load(("rom", int(rom_id)), lambda: store().roms.load(int(rom_id)))
 
 
 # ---- basis ---------------------------------------------------------------------------------------
@@ -85,17 +85,18 @@ def basis_job(job_id: str) -> None:
         wing = load_wing(job["wing_id"])
         designs = sample_designs(wing, int(p["samples"]), seed=int(p["seed"]))
         s = store()
-        children = s.children(job_id)
-        if not children:
-            for idx, r in enumerate(_chunks(len(designs), _settings.basis_chunk)):
-                s.create_job("basis-chunk", {"index": idx, "designs": designs[r.start:r.stop].tolist(),
-                                             "modes": int(p["modes"])},
-                             wing_id=job["wing_id"], parent_id=job_id)
-            children = s.children(job_id)
-        s.claim_stage(job_id, None, "fanout")
+        with s.unit_of_work() as uow:  # the chunk rows are committed together, before any message is sent
+            children = uow.jobs.children(job_id)
+            if not children:
+                for idx, r in enumerate(_chunks(len(designs), _settings.basis_chunk)):
+                    uow.jobs.create("basis-chunk", {"index": idx, "designs": designs[r.start:r.stop].tolist(),
+                                                    "modes": int(p["modes"])},
+                                    wing_id=job["wing_id"], parent_id=job_id)
+                children = uow.jobs.children(job_id)
+        s.jobs.claim_stage(job_id, None, "fanout")
         progress(0.02, f"{len(designs)} samples in {len(children)} chunks of modal analyses")
         for c in children:
-            if c["status"] == "queued":
+            if c["status"] == JobStatus.QUEUED:
                 send(app, "romams.training.basis_chunk", c["id"], s)
 
     _run(job_id, body, finish=False)
@@ -103,14 +104,15 @@ def basis_job(job_id: str) -> None:
 
 def chunk_outcome(s: Store, parent_id: str) -> list[dict[str, Any]] | None:
     """The chunks of a fan-out parent, or None after ending the parent because a chunk was cancelled or failed."""
-    kids = s.children(parent_id)
-    if any(k["status"] == "cancelled" for k in kids):
-        s.finish_job(parent_id, "cancelled", message="a chunk was cancelled")
+    kids = s.jobs.children(parent_id)
+    if any(k["status"] == JobStatus.CANCELLED for k in kids):
+        s.jobs.finish(parent_id, JobStatus.CANCELLED, message="a chunk was cancelled")
         return None
-    failed = [k for k in kids if k["status"] == "failed"]
+    failed = [k for k in kids if k["status"] == JobStatus.FAILED]
     if failed:
         first = failed[0]
-        s.finish_job(parent_id, "failed", error=f"chunk {first['params'].get('index')} failed: {first['error']}")
+        s.jobs.finish(parent_id, JobStatus.FAILED,
+                      error=f"chunk {first['params'].get('index')} failed: {first['error']}")
         return None
     return kids
 
@@ -121,9 +123,9 @@ def _after_chunk(parent_id: str, finalize_task: str, lo: float, hi: float) -> No
     kids = chunk_outcome(s, parent_id)
     if kids is None:
         return
-    done = sum(k["status"] == "succeeded" for k in kids)
-    s.set_progress(parent_id, lo + (hi - lo) * done / max(len(kids), 1), f"{done}/{len(kids)} chunks done")
-    if done == len(kids) and s.claim_stage(parent_id, "fanout", "finalize"):
+    done = sum(k["status"] == JobStatus.SUCCEEDED for k in kids)
+    s.jobs.progress(parent_id, lo + (hi - lo) * done / max(len(kids), 1), f"{done}/{len(kids)} chunks done")
+    if done == len(kids) and s.jobs.claim_stage(parent_id, "fanout", "finalize"):
         app.send_task(finalize_task, args=[parent_id])
 
 
@@ -140,12 +142,12 @@ def basis_chunk(job_id: str) -> None:
         for i, d in enumerate(designs):
             snaps.append(snapshot(wing, d, k))
             progress((i + 1) / len(designs), f"modal analysis {i + 1}/{len(designs)}")
-        store().save_artifact(job_id, "snapshots", np.hstack(snaps))
+        store().artifacts.save(job_id, "snapshots", np.hstack(snaps))
         return {"n_designs": len(designs)}
 
     _run(job_id, body)
-    job = store().get_job(job_id)
-    if job and job["parent_id"] and job["status"] in ("succeeded", "failed"):
+    job = store().jobs.get(job_id)
+    if job and job["parent_id"] and job["status"] in (JobStatus.SUCCEEDED, JobStatus.FAILED):
         _after_chunk(job["parent_id"], "romams.training.basis_finalize", 0.05, 0.9)
 
 
@@ -157,15 +159,16 @@ def basis_finalize(job_id: str) -> None:
     def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
         p = job["params"]
         s = store()
-        kids = sorted(s.children(job_id), key=lambda k: k["params"]["index"])
-        snaps = np.hstack([s.load_artifact(k["id"], "snapshots") for k in kids])
+        with s.unit_of_work() as uow:
+            kids = sorted(uow.jobs.children(job_id), key=lambda k: k["params"]["index"])
+            snaps = np.hstack([uow.artifacts.load(k["id"], "snapshots") for k in kids])
         designs = np.vstack([np.asarray(k["params"]["designs"], dtype=float) for k in kids])
         wing = load_wing(job["wing_id"])
         progress(0.92, f"SVD of {snaps.shape[1]} snapshots")
         basis = build_basis(snaps, mac_threshold=float(p["mac_threshold"]), max_basis=int(p["max_basis"]),
                             n_modes=int(p["modes"]), designs=designs, design_names=list(wing.variable_names),
                             wing_name=wing.name)
-        bid = s.save_basis(job["wing_id"], basis, p, job_id=job_id)
+        bid = s.bases.save(job["wing_id"], basis, p, job_id=job_id)
         return {"basis_id": bid, "n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac),
                 "capped": bool(basis.capped), "min_mac_by_m": basis.min_mac_by_m.tolist()}
 
@@ -200,7 +203,7 @@ def training_job(job_id: str) -> None:
                             nb=int(p["nb"]), progress=progress, **options)
         except TrainingError as exc:
             raise JobFailed(f"training failed: {exc}") from exc
-        rid = store().save_rom(wing_id, basis_id, rom, p["identity"], job_id=job_id)
+        rid = store().roms.save(wing_id, basis_id, rom, p["identity"], job_id=job_id)
         nrmse = np.atleast_1d(np.asarray(getattr(rom, "validation_nrmse", np.nan), dtype=float))
         return {"rom_id": rid, "mach": float(p["mach"]), "validation_nrmse": nrmse.tolist()}
 

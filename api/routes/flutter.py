@@ -13,8 +13,8 @@ from api.deps import Service, require_key, service, wing_or_404
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import BatchRequest, FlutterRequest
 from romams import jobs
+from romams.persistence import JobStatus, content_hash
 from romams.serialize import to_jsonable
-from romams.store import content_hash
 
 router = APIRouter(tags=["flutter"])
 
@@ -22,11 +22,11 @@ router = APIRouter(tags=["flutter"])
 def _basis_and_roms(svc: Service, wid: int, basis_id: int | None, machs: list[float] | None,
                     field: str = "machs") -> tuple[int, list[list[float]]]:
     """Basis id and [(mach, rom_id)] to evaluate; 409/404/422 naming the field when not available."""
-    bid = basis_id if basis_id is not None else svc.store.latest_basis_id(wid)
+    bid = basis_id if basis_id is not None else svc.store.bases.latest_id(wid)
     if bid is None:
         raise Problem(409, "basis_id: the wing has no basis yet; POST /api/v1/wings/{id}/basis first", "basis_id")
-    roms = svc.store.list_roms(wid, bid)
-    if basis_id is not None and not roms and bid not in {b["id"] for b in svc.store.list_bases(wid)}:
+    roms = svc.store.roms.of_wing(wid, bid)
+    if basis_id is not None and not roms and bid not in {b["id"] for b in svc.store.bases.of_wing(wid)}:
         raise Problem(404, f"basis_id: basis {bid} does not belong to wing {wid}", "basis_id")
     trained: dict[float, int] = {}
     for r in sorted(roms, key=lambda r: r["id"]):  # newest ROM of each Mach wins
@@ -81,7 +81,7 @@ def _inline_modes(svc: Service, wing: Any, modes: dict[str, Any]) -> int:
     except ValueError as exc:
         raise from_value_error(exc, "modes") from exc
     summary = {"n_nodes": int(m.nodes.shape[0]), "n_modes": int(m.shapes.shape[1])}
-    return svc.store.save_modes(m, "json", summary=summary)
+    return svc.store.modes.save(m, "json", summary=summary)
 
 
 def _wait(svc: Service, job_id: str, timeout_s: float) -> dict[str, Any] | None:
@@ -108,7 +108,7 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
         modes_id = _inline_modes(svc, w, body.modes.model_dump())
     elif modes_id is not None:
         try:
-            svc.store.load_modes(modes_id)
+            svc.store.modes.load(modes_id)
         except KeyError as exc:
             raise Problem(404, f"modes_id: no uploaded modes {modes_id}", "modes_id") from exc
     else:
@@ -116,7 +116,7 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
     request = body.model_dump(exclude={"modes"})
     h = content_hash("flutter", wid, bid, rom_ids, design) if modes_id is None and body.method == "rom-ams" else None
     if h is not None and body.store:
-        cached = svc.store.find_evaluation(h)
+        cached = svc.store.evaluations.find(h)
         if cached is not None:
             return {**cached["summary"], "evaluation_id": cached["id"], "cached": True}
     params = {"basis_id": bid, "rom_ids": rom_ids, "design": design, "modes_id": modes_id, "store": body.store,
@@ -125,14 +125,14 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
         job_id = jobs.submit(svc.store, svc.celery, "flutter-pms", params, wing_id=wid)
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{job_id}"
-        return {"job_id": job_id, "status": "queued"}
+        return {"job_id": job_id, "status": JobStatus.QUEUED}
     job_id = jobs.submit(svc.store, svc.celery, "flutter", params, wing_id=wid)
     job = _wait(svc, job_id, svc.settings.sync_timeout_s)
     if job is None:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{job_id}"
-        return {"job_id": job_id, "status": "queued"}
-    if job["status"] != "succeeded":
+        return {"job_id": job_id, "status": JobStatus.QUEUED}
+    if job["status"] != JobStatus.SUCCEEDED:
         raise _failed(job)
     return {**job["result"], "job_id": job_id}
 
@@ -148,27 +148,28 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
     vectors = [_design_vector(w, d, f"designs[{i}]") for i, d in enumerate(body.designs)]
     chunk = max(1, min(svc.settings.batch_chunk, math.ceil(n / 4)))
     params = {"basis_id": bid, "rom_ids": rom_ids, "n": n, "method": body.method}
-    parent = svc.store.create_job("flutter-batch", params, wing_id=wid, stage="fanout",
-                                  message=f"{n} designs in {math.ceil(n / chunk)} chunks")
-    kids = [svc.store.create_job("flutter-chunk", {"basis_id": bid, "rom_ids": rom_ids, "index": k,
-                                                   "designs": vectors[i:i + chunk]}, wing_id=wid, parent_id=parent)
-            for k, i in enumerate(range(0, n, chunk))]
+    with svc.store.unit_of_work() as uow:  # parent and chunks committed together, before any message is sent
+        parent = uow.jobs.create("flutter-batch", params, wing_id=wid, stage="fanout",
+                                 message=f"{n} designs in {math.ceil(n / chunk)} chunks")
+        kids = [uow.jobs.create("flutter-chunk", {"basis_id": bid, "rom_ids": rom_ids, "index": k,
+                                                  "designs": vectors[i:i + chunk]}, wing_id=wid, parent_id=parent)
+                for k, i in enumerate(range(0, n, chunk))]
     try:
         for k in kids:
             jobs.send(svc.celery, jobs.TASK_FOR_KIND["flutter-chunk"], k, svc.store)
     except jobs.BrokerUnavailable:
-        svc.store.cancel_job(parent)
+        svc.store.jobs.cancel(parent)
         raise
     if n > svc.settings.batch_sync_max:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{parent}"
-        return {"job_id": parent, "status": "queued", "n": n}
+        return {"job_id": parent, "status": JobStatus.QUEUED, "n": n}
     job = _wait(svc, parent, svc.settings.sync_timeout_s)
     if job is None:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{parent}"
-        return {"job_id": parent, "status": "running", "n": n}
-    if job["status"] != "succeeded":
+        return {"job_id": parent, "status": JobStatus.RUNNING, "n": n}
+    if job["status"] != JobStatus.SUCCEEDED:
         raise _failed(job)
     return {"results": job["result"]["results"], "job_id": parent}
 
@@ -176,7 +177,7 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
 # ---- stored evaluations ---------------------------------------------------------------------------
 def _evaluation_or_404(svc: Service, evaluation_id: int, full: bool = False) -> dict[str, Any]:
     """Stored evaluation or a 404 problem."""
-    ev = svc.store.get_evaluation(evaluation_id, full=full)
+    ev = svc.store.evaluations.get(evaluation_id, full=full)
     if ev is None:
         raise Problem(404, f"evaluation_id: no evaluation {evaluation_id}", "evaluation_id")
     return ev
@@ -186,7 +187,7 @@ def _evaluation_or_404(svc: Service, evaluation_id: int, full: bool = False) -> 
 def list_evaluations(wing_id: int | None = None, limit: int = Query(default=20, ge=1, le=500),
                      svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Newest stored evaluations (summaries)."""
-    return svc.store.list_evaluations(wing_id, limit)
+    return svc.store.evaluations.recent(wing_id, limit)
 
 
 @router.get("/evaluations/{evaluation_id}")
@@ -240,10 +241,10 @@ def evaluation_plot(evaluation_id: int, fmt: Literal["png", "svg"], kind: Litera
 
 def baseline_evaluation(svc: Service, ev: dict[str, Any]) -> Any:
     """The stored evaluation of the wing's baseline on the same basis (full result), if there is one."""
-    for other in svc.store.list_evaluations(ev["wing_id"], limit=500):
+    for other in svc.store.evaluations.recent(ev["wing_id"], limit=500):
         if other["basis_id"] != ev["basis_id"] or other["method"] != ev["method"]:
             continue
-        full = svc.store.get_evaluation(other["id"], full=True) or {}
+        full = svc.store.evaluations.get(other["id"], full=True) or {}
         req = full.get("request", {})
         if req.get("design") is None and req.get("modes_id") is None and req.get("modes") is None:
             return full["result"]

@@ -20,9 +20,9 @@ def _resolve_wing(name: str, use_store: bool) -> Any:
     from romams_core.wing import template
 
     if use_store:
-        from romams.store import open_store
+        from romams.persistence import open_store
 
-        found = open_store().find_wing(name)
+        found = open_store().wings.find(name)
         if found is not None:
             return found[1]
     try:
@@ -104,13 +104,13 @@ def basis_command(
             holdout_poor_fits=int(np.sum(hold < mac)),
         )
     if store:
-        from romams.store import open_store
+        from romams.persistence import open_store
 
-        st = open_store()
-        wing_id = st.ensure_wing(w)
         params = {"samples": samples, "modes": modes, "mac_threshold": mac, "max_basis": max_basis, "seed": seed}
-        report["wing_id"] = wing_id
-        report["basis_id"] = st.save_basis(wing_id, basis, params)
+        with open_store().unit_of_work() as uow:
+            wing_id = uow.wings.ensure(w)
+            report["wing_id"] = wing_id
+            report["basis_id"] = uow.bases.save(wing_id, basis, params)
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(out, **basis_arrays(basis))

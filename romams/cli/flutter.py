@@ -86,7 +86,7 @@ def flutter_command(
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
 ) -> None:
     """Flutter analysis of one structure with the wing's ROM-AMS models (training what is missing)."""
-    from romams.store import open_store
+    from romams.persistence import open_store
     from romams_core.basis import project
     from romams_core.evaluate import evaluate_structure
     from romams_core.mesh import standard_mesh
