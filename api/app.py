@@ -15,8 +15,8 @@ from api import problems
 from api.deps import Service
 from romams import __version__
 from romams.jobs import StaleSweeper
+from romams.persistence import open_store
 from romams.settings import Settings, get_settings
-from romams.store import open_store
 
 STATIC_DIR = Path(__file__).resolve().parent / "static"
 
@@ -60,11 +60,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
     @app.get("/api/v1/health", tags=["meta"])
     def health() -> dict[str, Any]:
         """Liveness + database check."""
-        from sqlalchemy import text
-
-        with store.engine.connect() as conn:
-            conn.execute(text("SELECT 1"))
-        return {"status": "ok", "version": __version__, "database": store.engine.dialect.name}
+        return {"status": "ok", "version": __version__, "database": store.ping()}
 
     return app
 

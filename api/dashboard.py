@@ -42,7 +42,7 @@ def job_row(j: dict[str, Any]) -> str:
 def _bases_html(svc: Service, wid: int) -> str:
     """Bases of a wing: size, worst MAC by number of shapes, per-sample MAC table, basis shapes image."""
     parts = []
-    for b in svc.store.list_bases(wid)[:3]:
+    for b in svc.store.bases.of_wing(wid)[:3]:
         sm = b["summary"]
         by_m = sm.get("min_mac_by_m") or []
         head = "".join(f"<th>{i + 1}</th>" for i in range(len(by_m)))
@@ -68,7 +68,7 @@ def _bases_html(svc: Service, wid: int) -> str:
 def _roms_html(svc: Service, wid: int) -> str:
     """ROM table of a wing: Mach, solver, orders, validation error."""
     rows = []
-    for r in svc.store.list_roms(wid):
+    for r in svc.store.roms.of_wing(wid):
         nrmse = r["summary"].get("validation_nrmse")
         worst = max(nrmse) if isinstance(nrmse, list) and nrmse else nrmse
         rows.append(f'<tr><td>{r["id"]}</td><td>{_num(r["mach"], ".3f")}</td><td>{e(r["solver"])}</td>'
@@ -83,7 +83,7 @@ def _roms_html(svc: Service, wid: int) -> str:
 def _evaluations_html(svc: Service) -> str:
     """Recent evaluations with their flutter points and V-g / envelope plots."""
     parts = []
-    for ev in svc.store.list_evaluations(limit=5):
+    for ev in svc.store.evaluations.recent(limit=5):
         sm = ev["summary"]
         rows = "".join(f'<tr><td>{_num(r.get("mach"), ".3f")}</td><td>{_num(r.get("v_flutter_m_s"), ".1f")}</td>'
                        f'<td>{_num(r.get("omega_flutter_rad_s"), ".2f")}</td><td>{_num(r.get("q_flutter_pa"), ".0f")}'
@@ -104,9 +104,9 @@ def _evaluations_html(svc: Service) -> str:
 @router.get("/dashboard", response_class=HTMLResponse)
 def dashboard(svc: Service = Depends(service)) -> HTMLResponse:
     """The dashboard page."""
-    jobs = svc.store.list_jobs(limit=30, top_level=True)
+    jobs = svc.store.jobs.recent(limit=30, top_level=True)
     wings = []
-    for w in svc.store.list_wings():
+    for w in svc.store.wings.all():
         wings.append(f'<section class="wing" data-wing="{w["id"]}"><h3>Wing {w["id"]}: {e(w["name"])}</h3>'
                      f'<h4>Bases</h4>{_bases_html(svc, w["id"])}<h4>ROMs</h4>{_roms_html(svc, w["id"])}</section>')
     page = (TEMPLATE

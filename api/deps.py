@@ -9,8 +9,8 @@ from typing import Any
 from fastapi import Request
 
 from api.problems import Problem
+from romams.persistence import Store
 from romams.settings import Settings
-from romams.store import Store
 
 
 @dataclass
@@ -48,7 +48,7 @@ def wing_or_404(svc: Service, wing_ref: str) -> tuple[int, Any]:
     if hit is not None:
         return hit
     try:
-        found = svc.store.find_wing(wing_ref)
+        found = svc.store.wings.find(wing_ref)
     except ValueError as exc:  # a stored definition the current code cannot read
         raise Problem(409, f"wing: stored definition of {wing_ref!r} cannot be loaded: {exc}", "wing") from exc
     if found is None:

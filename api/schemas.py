@@ -6,6 +6,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, model_validator
 
+from romams.persistence import JobStatus
+
 Design = dict[str, FiniteFloat] | list[FiniteFloat]
 
 
@@ -185,7 +187,7 @@ class JobOut(BaseModel):
 
     id: str
     kind: str
-    status: Literal["queued", "running", "succeeded", "failed", "cancelled"]
+    status: JobStatus
     progress: float
     message: str
     result: Any = None

@@ -19,6 +19,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from romams.persistence import FINAL, JobStatus
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -27,7 +29,7 @@ def _wait(client: Any, job_id: str, timeout_s: float = 900.0) -> dict[str, Any]:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         job = client.get(f"/api/v1/jobs/{job_id}").json()
-        if job["status"] in ("succeeded", "failed", "cancelled"):
+        if job["status"] in FINAL:
             return job
         time.sleep(0.1)
     raise TimeoutError(job_id)
@@ -61,7 +63,7 @@ def run(workers: int, machs: list[float], samples: int, modes: int, generations:
                 ids = c.post(f"/api/v1/wings/{wid}/roms", json={"machs": machs}).json()["job_ids"]
                 trained = [_wait(c, j) for j in ids]
                 t_train = time.perf_counter() - t0
-                if basis["status"] != "succeeded" or any(j["status"] != "succeeded" for j in trained):
+                if basis["status"] != JobStatus.SUCCEEDED or any(j["status"] != JobStatus.SUCCEEDED for j in trained):
                     raise RuntimeError(f"setup failed: {basis['error']} {[j['error'] for j in trained]}")
                 wing = template("cropped-delta")
                 c.post(f"/api/v1/wings/{wid}/flutter", json={"design": None, "store": False})  # warm workers

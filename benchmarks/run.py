@@ -248,17 +248,17 @@ def http_latency(data_dir: Path, samples: int, n_designs: int, seed: int = 21, *
 
     from benchmarks.live_service import LiveService
     from client import RomamsClient
+    from romams.persistence import open_store
     from romams.services.evaluation import evaluate_structure_summary
     from romams.services.models import load_models, resolve_basis_id, trained_rom_ids
     from romams.settings import Settings
-    from romams.store import open_store
     from romams_core.basis import random_designs
     from romams_core.mesh import standard_mesh
 
     with LiveService(data_dir, concurrency=1, **settings) as svc, RomamsClient(svc.url, timeout=600) as client:
         wid, setup = _prepare(client, samples, MACHS)
         store = open_store(Settings(data_dir=data_dir, **{k: v for k, v in settings.items() if k != "broker_url"}))
-        wing_id, wing = store.find_wing(wid)
+        wing_id, wing = store.wings.find(wid)
         bid = resolve_basis_id(store, wing_id)
         models = load_models(wing_id, wing, bid, trained_rom_ids(store, wing_id, bid), store.load_basis,
                              store.load_rom, lambda _: standard_mesh(wing.planform))

@@ -1,11 +1,11 @@
-"""Alembic environment: target metadata from romams.db, URL from romams.settings (or the caller)."""
+"""Alembic environment: target metadata from romams.persistence.models, URL from romams.settings (or the caller)."""
 
 from __future__ import annotations
 
 from alembic import context
 from sqlalchemy import engine_from_config, pool
 
-from romams.db import Base
+from romams.persistence.models import Base
 from romams.settings import Settings
 
 config = context.config

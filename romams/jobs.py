@@ -16,9 +16,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from romams.persistence import FINAL, JobStatus, Store
 from romams.services.errors import error_dict
 from romams.services.queue import FINALIZE_FOR_KIND, TASK_FOR_KIND
-from romams.store import Store
 
 try:  # the core's cancellation exception, raised by progress callbacks and passed through by solvers
     from romams_core.aero.protocol import Cancelled
@@ -45,7 +45,8 @@ class Outcome:
 
     def as_dict(self) -> dict[str, Any]:
         """JSON form returned through the result backend."""
-        return {"status": self.status, "result": self.result, "error": self.error}
+        return {"status": None if self.status is None else str(self.status), "result": self.result,
+                "error": self.error}
 
 
 class BrokerUnavailable(RuntimeError):
@@ -58,7 +59,8 @@ def send(celery: Any, task_name: str, job_id: str, store: Store | None = None) -
         celery.send_task(task_name, args=[job_id], task_id=job_id)
     except Exception as exc:
         if store is not None:
-            store.finish_job(job_id, "failed", error=f"could not enqueue the task: {type(exc).__name__}: {exc}")
+            store.jobs.finish(job_id, JobStatus.FAILED,
+                              error=f"could not enqueue the task: {type(exc).__name__}: {exc}")
         raise BrokerUnavailable(f"broker: could not enqueue the task ({type(exc).__name__}: {exc})") from exc
 
 
@@ -66,7 +68,7 @@ def submit(store: Store, celery: Any, kind: str, params: dict[str, Any], *, wing
            key: str | None = None, parent_id: str | None = None, stage: str | None = None,
            send_now: bool = True) -> str:
     """Create the job row (committed) and then send its task; returns the job id."""
-    job_id = store.create_job(kind, params, wing_id=wing_id, key=key, parent_id=parent_id, stage=stage)
+    job_id = store.jobs.create(kind, params, wing_id=wing_id, key=key, parent_id=parent_id, stage=stage)
     if send_now:
         send(celery, TASK_FOR_KIND[kind], job_id, store)
     return job_id
@@ -97,9 +99,9 @@ def wait_for(store: Store, job_id: str, timeout_s: float, poll_s: float = 0.01) 
     deadline = time.monotonic() + timeout_s
     delay = poll_s
     while True:
-        status = store.job_status(job_id)
-        if status in ("succeeded", "failed", "cancelled"):
-            return store.get_job(job_id)
+        status = store.jobs.status(job_id)
+        if status in FINAL:
+            return store.jobs.get(job_id)
         if status is None or time.monotonic() > deadline:
             return None
         time.sleep(delay)
@@ -114,9 +116,11 @@ class _Heartbeat:
         self._t = threading.Thread(target=self._run, args=(store, job_id, period_s), daemon=True)
 
     def _run(self, store: Store, job_id: str, period_s: float) -> None:
+        jobs = store.jobs
         while not self._stop.wait(period_s):
             try:
-                if not store.heartbeat(job_id) and not store.update_job(job_id, expect=("queued",), status="running"):
+                if not jobs.heartbeat(job_id) and not jobs.update(job_id, expect=(JobStatus.QUEUED,),
+                                                                  status=JobStatus.RUNNING):
                     return
             except Exception:  # a transient database error must not kill the task
                 continue
@@ -136,10 +140,11 @@ def progress_callback(store: Store, job_id: str, lo: float = 0.0, hi: float = 1.
 
     def still_mine() -> None:
         """Raise Cancelled unless the job is running; a job the sweeper re-queued while we live is taken back."""
-        status = store.job_status(job_id)
-        if status == "queued" and store.update_job(job_id, expect=("queued",), status="running"):
+        status = store.jobs.status(job_id)
+        if status == JobStatus.QUEUED and store.jobs.update(job_id, expect=(JobStatus.QUEUED,),
+                                                            status=JobStatus.RUNNING):
             return
-        if status != "running":
+        if status != JobStatus.RUNNING:
             raise Cancelled(f"job {job_id} is {status}")
 
     def report(fraction: float, message: str = "") -> None:
@@ -148,9 +153,9 @@ def progress_callback(store: Store, job_id: str, lo: float = 0.0, hi: float = 1.
             still_mine()
             return
         last[0] = now
-        if not store.set_progress(job_id, lo + (hi - lo) * float(fraction), message):
+        if not store.jobs.progress(job_id, lo + (hi - lo) * float(fraction), message):
             still_mine()
-            store.set_progress(job_id, lo + (hi - lo) * float(fraction), message)
+            store.jobs.progress(job_id, lo + (hi - lo) * float(fraction), message)
 
     return report
 
@@ -163,58 +168,53 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
     field, detail, reason}}`` (typed errors keep their field from the core to the HTTP problem).
     """
     if count_delivery:
-        ok, _ = store.start_job(job_id, max_deliveries)
+        ok, _ = store.jobs.start(job_id, max_deliveries)
         if not ok:
             return Outcome(None)
-    elif store.job_status(job_id) != "running":
+    elif store.jobs.status(job_id) != JobStatus.RUNNING:
         return Outcome(None)
-    job = store.get_job(job_id)
+    job = store.jobs.get(job_id)
     if job is None:
         return Outcome(None)
     try:
         with _Heartbeat(store, job_id, heartbeat_s):
             result = body(job, progress_callback(store, job_id))
     except Cancelled:
-        store.finish_job(job_id, "cancelled", message="cancelled")
-        return Outcome("cancelled")
+        store.jobs.finish(job_id, JobStatus.CANCELLED, message="cancelled")
+        return Outcome(JobStatus.CANCELLED)
     except (ValueError, KeyError, JobFailed) as exc:
         err = error_dict(exc) if isinstance(exc, ValueError) else {"status": 500, "field": None,
                                                                     "detail": str(exc), "reason": str(exc)}
-        store.finish_job(job_id, "failed", error=f"{type(exc).__name__}: {exc}", message="failed",
-                         result={"error": err})
-        return Outcome("failed", error=err)
+        store.jobs.finish(job_id, JobStatus.FAILED, error=f"{type(exc).__name__}: {exc}", message="failed",
+                          result={"error": err})
+        return Outcome(JobStatus.FAILED, error=err)
     except Exception as exc:  # noqa: BLE001 - every failure must end in a final job state
         tb = traceback.format_exc(limit=8)
         name = type(exc).__name__
         reason = "time limit exceeded" if name in ("SoftTimeLimitExceeded", "TimeLimitExceeded") else str(exc)
-        store.finish_job(job_id, "failed", error=f"{name}: {reason}\n{tb}", message="failed")
-        return Outcome("failed", error={"status": 500, "field": None, "detail": f"{name}: {reason}",
-                                        "reason": reason})
+        store.jobs.finish(job_id, JobStatus.FAILED, error=f"{name}: {reason}\n{tb}", message="failed")
+        return Outcome(JobStatus.FAILED, error={"status": 500, "field": None, "detail": f"{name}: {reason}",
+                                                "reason": reason})
     if finish:
-        store.finish_job(job_id, "succeeded", result=result, message="done")
-    return Outcome("succeeded", result)
+        store.jobs.finish(job_id, JobStatus.SUCCEEDED, result=result, message="done")
+    return Outcome(JobStatus.SUCCEEDED, result)
 
 
 def sweep_stale(store: Store, celery: Any, stale_s: float) -> list[str]:
     """Re-send running jobs untouched for ``stale_s`` seconds (their worker died); returns their ids."""
     resent = []
-    for job in store.stale_jobs(stale_s):
-        kind, stage = job["kind"], None
-        with store.session() as s:
-            from romams.db import Job
-
-            row = s.get(Job, job["id"])
-            stage = row.stage if row is not None else None
+    for job in store.jobs.stale(stale_s):
+        kind, stage = job["kind"], store.jobs.stage(job["id"])
         if stage == "fanout":
-            store.heartbeat(job["id"])  # its chunks carry the work; they are swept on their own
+            store.jobs.heartbeat(job["id"])  # its chunks carry the work; they are swept on their own
             continue
         task = FINALIZE_FOR_KIND.get(kind) if stage == "finalize" else TASK_FOR_KIND.get(kind)
         if task is None:
             continue
         if stage == "finalize":
-            store.heartbeat(job["id"])
+            store.jobs.heartbeat(job["id"])
             celery.send_task(task, args=[job["id"]])
-        elif store.requeue(job["id"], f"re-sent after {stale_s:.0f} s without a heartbeat (worker lost)"):
+        elif store.jobs.requeue(job["id"], f"re-sent after {stale_s:.0f} s without a heartbeat (worker lost)"):
             celery.send_task(task, args=[job["id"]], task_id=job["id"])
         resent.append(job["id"])
     return resent

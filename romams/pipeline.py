@@ -35,11 +35,11 @@ def _stderr(msg: str) -> None:
 
 def resolve_wing(store: Any, name: str) -> tuple[int, WingDefinition]:
     """(id, wing) of a stored wing by name or id, else the template of that name stored under its name."""
-    found = store.find_wing(name)
+    found = store.wings.find(name)
     if found is not None:
         return int(found[0]), found[1]
     wing = template(name)  # ValueError naming the unknown template
-    return int(store.ensure_wing(wing)), wing
+    return int(store.wings.ensure(wing)), wing
 
 
 def basis_params(samples: int, modes: int, mac_threshold: float, max_basis: int, seed: int) -> dict[str, Any]:
@@ -72,9 +72,9 @@ def ensure_basis(
     A newly built basis becomes the wing's active basis only when the wing has none yet.
     """
     params = basis_params(samples, modes, mac_threshold, max_basis, seed)
-    for row in store.list_bases(wing_id):
+    for row in store.bases.of_wing(wing_id):
         if {k: row["params"].get(k) for k in params} == params:
-            return int(row["id"]), store.load_basis(int(row["id"]))
+            return int(row["id"]), store.bases.load(int(row["id"]))
     t0 = time.perf_counter()
     if not wing.design_variables:
         log(f"wing {wing.name!r} has no design variables: its own {modes} modes are its basis")
@@ -83,7 +83,7 @@ def ensure_basis(
         log(f"building the PCA basis of {wing.name!r}: {samples} LHS samples x {modes} modes, MAC >= {mac_threshold:g}")
         basis = build_basis_for_wing(wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
                                      max_basis=max_basis, seed=seed)
-    bid = store.save_basis(wing_id, basis, params)
+    bid = store.bases.save(wing_id, basis, params)
     active = activate_first_basis(store, wing_id, bid)
     log(f"basis {bid}: {basis.n_basis} shapes, worst sample MAC {basis.min_mac:.5f} ({time.perf_counter() - t0:.1f} s)"
         + (", now the wing's active basis" if active else ""))
@@ -152,7 +152,7 @@ def ensure_roms(
     out: dict[float, tuple[int, Any]] = {}
     missing = []
     for mach in machs:
-        found = store.find_rom(wing_id, basis_id, float(mach), ident)
+        found = store.roms.find(wing_id, basis_id, float(mach), ident)
         if found is None:
             missing.append(float(mach))
         else:
@@ -163,7 +163,7 @@ def ensure_roms(
         t0 = time.perf_counter()
         roms = train_shapes(standard_mesh(wing.planform), basis.shapes, missing, ident, processes)
         for mach, rom in zip(missing, roms, strict=True):
-            rid = store.save_rom(wing_id, basis_id, rom, ident)
+            rid = store.roms.save(wing_id, basis_id, rom, ident)
             out[mach] = (int(rid), rom)
             log(f"  M = {mach:g}: rom {rid}, validation NRMSE max {np.max(rom.validation_nrmse):.2e}, "
                 f"{rom.train_seconds:.1f} s")
@@ -177,11 +177,11 @@ def cli_models(store: Any, wing_id: int, wing: WingDefinition, machs: Sequence[f
                log: Log = _stderr) -> Models:
     """Models of a local evaluation: the named or active basis (built and activated when the wing has none)
     and one ROM per Mach with identity ``ident`` (trained when missing)."""
-    if basis_id is None and store.active_basis_id(wing_id) is None:
+    if basis_id is None and store.wings.active_basis(wing_id) is None:
         bid, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
                                   log=log)
     else:
         bid = resolve_basis_id(store, wing_id, basis_id)
-        basis = store.load_basis(bid)
+        basis = store.bases.load(bid)
     roms = ensure_roms(store, wing_id, wing, bid, basis, machs, ident=ident, processes=processes, log=log)
     return Models(int(wing_id), wing, standard_mesh(wing.planform), int(bid), basis, roms)

@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from romams.cli import app
-from romams.store import open_store
+from romams.persistence import open_store
 
 
 def test_basis_command_json_npz_plots_and_store(data_dir):
@@ -35,7 +35,7 @@ def test_basis_command_json_npz_plots_and_store(data_dir):
     for name in ("basis_shapes.png", "mac_vs_basis_size.png", "fit_comparison.png"):
         assert (plots / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     store = open_store()
-    bid, stored = store.latest_basis(rep["wing_id"])
+    bid, stored = store.bases.latest(rep["wing_id"])
     assert bid == rep["basis_id"]
     np.testing.assert_array_equal(stored.shapes, shapes)
     assert stored.min_mac == pytest.approx(rep["min_mac_samples"], abs=1e-6)

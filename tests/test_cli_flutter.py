@@ -6,7 +6,7 @@ import pytest
 from typer.testing import CliRunner
 
 from romams.cli import app
-from romams.store import open_store
+from romams.persistence import open_store
 
 QUICK = ["--samples", "6", "--mac", "0.98"]
 DESIGN = "x1=0.3,x2=0.4,x3=0.7,x4=0.05,x5=1.0,x6=1.0,x7=0.8"
@@ -36,8 +36,8 @@ def test_flutter_json_contract_trains_once_and_reuses_the_store(data_dir):
         assert r["q_flutter_pa"] == pytest.approx(0.5 * 0.41351 * r["v_flutter_m_s"] ** 2, rel=1e-3)
     assert len(list((data_dir / "plots").glob("vg_M*.png"))) == 2
     st = open_store()
-    wing_id = st.find_wing("cropped-delta")[0]
-    assert len(st.list_roms(wing_id)) == 2
+    wing_id = st.wings.find("cropped-delta")[0]
+    assert len(st.roms.of_wing(wing_id)) == 2
     # second call: the stored basis and ROMs are reused, nothing is trained again
     again = _run("--wing", "cropped-delta", "--design", DESIGN, "--mach", "0.87", "--json", *QUICK)
     assert again.exit_code == 0, again.output

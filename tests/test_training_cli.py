@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from romams.cli import app
-from romams.store import open_store
+from romams.persistence import open_store
 
 
 def test_train_command_json_plots_and_store(data_dir):
@@ -26,7 +26,7 @@ def test_train_command_json_plots_and_store(data_dir):
     for p in rep["plots"]:
         with open(p, "rb") as fh:
             assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
-    rom = open_store().load_rom(rep["rom_id"])
+    rom = open_store().roms.load(rep["rom_id"])
     np.testing.assert_allclose(rom.validation_nrmse, rep["validation_nrmse"], rtol=1e-12)
     assert rom.ss.is_stable()
     # the same request again finds the stored ROM instead of retraining

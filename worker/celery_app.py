@@ -37,7 +37,7 @@ app = make_app()
 @worker_process_init.connect
 def _fresh_connections(**_: Any) -> None:
     """A forked pool process must not reuse the parent's database connections."""
-    from romams.store import dispose_engines
+    from romams.persistence import dispose_engines
 
     dispose_engines()
     from worker import context

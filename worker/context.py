@@ -9,8 +9,8 @@ from __future__ import annotations
 from typing import Any
 
 from romams.jobs import JobFailed, run_job
+from romams.persistence import JobStatus, Store, open_store
 from romams.settings import get_settings
-from romams.store import Store, open_store
 from worker.cache import LruCache
 
 _STORE: list[Store] = []
@@ -39,7 +39,7 @@ def run(job_id: str, body: Any, **kw: Any) -> Any:
 def load_wing(wing_id: int) -> Any:
     """WingDefinition of a stored wing (cached; a stored definition never changes)."""
     def load() -> Any:
-        found = store().find_wing(int(wing_id))
+        found = store().wings.find(int(wing_id))
         if found is None:
             raise JobFailed(f"wing {wing_id} not found")
         return found[1]
@@ -55,12 +55,12 @@ def load_mesh(wing_id: int) -> Any:
 
 def load_basis(basis_id: int) -> Any:
     """Basis by id (cached; a stored basis never changes)."""
-    return OBJECTS.get_or_load(("basis", int(basis_id)), lambda: store().load_basis(int(basis_id)))
+    return OBJECTS.get_or_load(("basis", int(basis_id)), lambda: store().bases.load(int(basis_id)))
 
 
 def load_rom(rom_id: int) -> Any:
     """TrainedRom by id (cached; a ROM row never changes, a retrained one gets a new id)."""
-    return OBJECTS.get_or_load(("rom", int(rom_id)), lambda: store().load_rom(int(rom_id)))
+    return OBJECTS.get_or_load(("rom", int(rom_id)), lambda: store().roms.load(int(rom_id)))
 
 
 def make_solver(name: str) -> Any:
@@ -75,13 +75,14 @@ def make_solver(name: str) -> Any:
 
 def chunk_outcome(s: Store, parent_id: str) -> list[dict[str, Any]] | None:
     """The chunks of a fan-out parent, or None after ending the parent because a chunk was cancelled or failed."""
-    kids = s.children(parent_id)
-    if any(k["status"] == "cancelled" for k in kids):
-        s.finish_job(parent_id, "cancelled", message="a chunk was cancelled")
+    kids = s.jobs.children(parent_id)
+    if any(k["status"] == JobStatus.CANCELLED for k in kids):
+        s.jobs.finish(parent_id, JobStatus.CANCELLED, message="a chunk was cancelled")
         return None
-    failed = [k for k in kids if k["status"] == "failed"]
+    failed = [k for k in kids if k["status"] == JobStatus.FAILED]
     if failed:
         first = failed[0]
-        s.finish_job(parent_id, "failed", error=f"chunk {first['params'].get('index')} failed: {first['error']}")
+        s.jobs.finish(parent_id, JobStatus.FAILED,
+                      error=f"chunk {first['params'].get('index')} failed: {first['error']}")
         return None
     return kids

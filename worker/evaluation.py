@@ -11,10 +11,10 @@ from __future__ import annotations
 from typing import Any
 
 from romams.jobs import JobFailed, Outcome, ProgressFn
+from romams.persistence import JobStatus, content_hash
 from romams.services.evaluation import Models, evaluate_structure_summary, pms_summary, structure_modal
 from romams.services.flight import FlightCondition
 from romams.services.models import load_models
-from romams.store import content_hash
 from worker.cache import LruCache
 from worker.celery_app import app
 from worker.context import (
@@ -47,7 +47,7 @@ def evaluate(wing_id: int, basis_id: int, rom_ids: list[list[float]], design: li
              modes_id: int | None = None, condition: FlightCondition | None = None) -> tuple[dict[str, Any], Any]:
     """Evaluate one structure with the use case -> (JSON summary, StructureEvaluation)."""
     models = models_for(wing_id, basis_id, rom_ids)
-    modes = None if modes_id is None else store().load_modes(int(modes_id))
+    modes = None if modes_id is None else store().modes.load(int(modes_id))
     return evaluate_structure_summary(models, design=design, modes=modes, condition=condition or FlightCondition(),
                                       cache=OBJECTS.get_or_load)
 
@@ -76,7 +76,7 @@ def flutter_job(job_id: str) -> dict[str, Any]:
         if h is not None:
             RESULTS.put(h, dict(summary))
         if keep:
-            summary["evaluation_id"] = store().save_evaluation(
+            summary["evaluation_id"] = store().evaluations.save(
                 job["wing_id"], result, summary=summary, request=p.get("request") or {}, basis_id=p["basis_id"],
                 method=p.get("method", "rom-ams"), content_hash=p.get("content_hash"))
         return summary
@@ -92,9 +92,9 @@ def evaluate_pms(wing_id: int, basis_id: int, rom_ids: list[list[float]], design
 
     condition = condition or FlightCondition()
     models = models_for(wing_id, basis_id, rom_ids)
-    modes = None if modes_id is None else store().load_modes(int(modes_id))
+    modes = None if modes_id is None else store().modes.load(int(modes_id))
     modal = structure_modal(models, design, modes)
-    rows = {int(r["id"]): r for r in store().list_roms(wing_id, basis_id)}
+    rows = {int(r["id"]): r for r in store().roms.of_wing(wing_id, basis_id)}
     own: dict[float, tuple[int, Any]] = {}
     for i, (mach, rid) in enumerate(rom_ids):
         ident = rows[int(rid)]["params"]
@@ -117,7 +117,7 @@ def flutter_pms_job(job_id: str) -> None:
         summary, result = evaluate_pms(job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"),
                                        p.get("modes_id"), progress, condition_of(p))
         if p.get("store", True):
-            summary["evaluation_id"] = store().save_evaluation(
+            summary["evaluation_id"] = store().evaluations.save(
                 job["wing_id"], result, summary=summary, request=p.get("request") or {}, basis_id=p["basis_id"],
                 method="rom-pms")
         return summary
@@ -149,8 +149,8 @@ def flutter_chunk(job_id: str) -> None:
         return {"index": p["index"], "results": out}
 
     run(job_id, body)
-    job = store().get_job(job_id)
-    if job and job["parent_id"] and job["status"] in ("succeeded", "failed"):
+    job = store().jobs.get(job_id)
+    if job and job["parent_id"] and job["status"] in (JobStatus.SUCCEEDED, JobStatus.FAILED):
         assemble_batch(job["parent_id"])
 
 
@@ -160,21 +160,21 @@ def assemble_batch(parent_id: str) -> None:
     kids = chunk_outcome(s, parent_id)
     if kids is None:
         return
-    done = [k for k in kids if k["status"] == "succeeded"]
-    s.update_job(parent_id, expect=("queued",), status="running")
-    s.set_progress(parent_id, len(done) / max(len(kids), 1), f"{len(done)}/{len(kids)} chunks done")
-    if len(done) == len(kids) and s.claim_stage(parent_id, "fanout", "finalize"):
+    done = [k for k in kids if k["status"] == JobStatus.SUCCEEDED]
+    s.jobs.update(parent_id, expect=(JobStatus.QUEUED,), status=JobStatus.RUNNING)
+    s.jobs.progress(parent_id, len(done) / max(len(kids), 1), f"{len(done)}/{len(kids)} chunks done")
+    if len(done) == len(kids) and s.jobs.claim_stage(parent_id, "fanout", "finalize"):
         results: list[Any] = []
         for k in sorted(done, key=lambda k: k["params"]["index"]):
             results.extend(k["result"]["results"])
-        s.finish_job(parent_id, "succeeded", result={"results": results, "n": len(results)}, message="done")
+        s.jobs.finish(parent_id, JobStatus.SUCCEEDED, result={"results": results, "n": len(results)}, message="done")
 
 
 @app.task(name="romams.evaluation.batch_finalize", acks_late=True, time_limit=settings.evaluation_time_limit_s)
 def batch_finalize(job_id: str) -> None:
     """Re-run the batch assembly (sent by the stale-job sweeper if the assembling worker died)."""
     s = store()
-    if s.claim_stage(job_id, "finalize", "fanout"):
+    if s.jobs.claim_stage(job_id, "finalize", "fanout"):
         assemble_batch(job_id)
 
 

@@ -1,6 +1,6 @@
 """Celery tasks: thin wrappers that load inputs from the store, call romams_core and persist results.
 
-Every task takes one job id; the job row (romams.store) carries the parameters, progress and outcome.
+Every task takes one job id; the job row (romams.persistence) carries the parameters, progress and outcome.
 This module holds the training-queue tasks; the flutter evaluations are in ``worker.evaluation``.
 Basis jobs fan out: the parent samples the design space and creates chunk jobs of modal analyses (spread
 over the workers); the chunk that completes last claims the parent's "finalize" stage and sends the SVD
@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from romams.jobs import JobFailed, ProgressFn, send
+from romams.persistence import JobStatus
 from romams.services.models import activate_first_basis
 from worker.celery_app import app
 from worker.context import chunk_outcome, load_basis, load_mesh, load_wing, make_solver, run, settings, store
@@ -35,17 +36,18 @@ def basis_job(job_id: str) -> None:
         wing = load_wing(job["wing_id"])
         designs = sample_designs(wing, int(p["samples"]), seed=int(p["seed"]))
         s = store()
-        children = s.children(job_id)
-        if not children:
-            for idx, r in enumerate(_chunks(len(designs), settings.basis_chunk)):
-                s.create_job("basis-chunk", {"index": idx, "designs": designs[r.start:r.stop].tolist(),
-                                             "modes": int(p["modes"])},
-                             wing_id=job["wing_id"], parent_id=job_id)
-            children = s.children(job_id)
-        s.claim_stage(job_id, None, "fanout")
+        with s.unit_of_work() as uow:  # the chunk rows are committed together, before any message is sent
+            children = uow.jobs.children(job_id)
+            if not children:
+                for idx, r in enumerate(_chunks(len(designs), settings.basis_chunk)):
+                    uow.jobs.create("basis-chunk", {"index": idx, "designs": designs[r.start:r.stop].tolist(),
+                                                    "modes": int(p["modes"])},
+                                    wing_id=job["wing_id"], parent_id=job_id)
+                children = uow.jobs.children(job_id)
+        s.jobs.claim_stage(job_id, None, "fanout")
         progress(0.02, f"{len(designs)} samples in {len(children)} chunks of modal analyses")
         for c in children:
-            if c["status"] == "queued":
+            if c["status"] == JobStatus.QUEUED:
                 send(app, "romams.training.basis_chunk", c["id"], s)
 
     run(job_id, body, finish=False)
@@ -57,9 +59,9 @@ def _after_chunk(parent_id: str, finalize_task: str, lo: float, hi: float) -> No
     kids = chunk_outcome(s, parent_id)
     if kids is None:
         return
-    done = sum(k["status"] == "succeeded" for k in kids)
-    s.set_progress(parent_id, lo + (hi - lo) * done / max(len(kids), 1), f"{done}/{len(kids)} chunks done")
-    if done == len(kids) and s.claim_stage(parent_id, "fanout", "finalize"):
+    done = sum(k["status"] == JobStatus.SUCCEEDED for k in kids)
+    s.jobs.progress(parent_id, lo + (hi - lo) * done / max(len(kids), 1), f"{done}/{len(kids)} chunks done")
+    if done == len(kids) and s.jobs.claim_stage(parent_id, "fanout", "finalize"):
         app.send_task(finalize_task, args=[parent_id])
 
 
@@ -76,12 +78,12 @@ def basis_chunk(job_id: str) -> None:
         for i, d in enumerate(designs):
             snaps.append(snapshot(wing, d, k))
             progress((i + 1) / len(designs), f"modal analysis {i + 1}/{len(designs)}")
-        store().save_artifact(job_id, "snapshots", np.hstack(snaps))
+        store().artifacts.save(job_id, "snapshots", np.hstack(snaps))
         return {"n_designs": len(designs)}
 
     run(job_id, body)
-    job = store().get_job(job_id)
-    if job and job["parent_id"] and job["status"] in ("succeeded", "failed"):
+    job = store().jobs.get(job_id)
+    if job and job["parent_id"] and job["status"] in (JobStatus.SUCCEEDED, JobStatus.FAILED):
         _after_chunk(job["parent_id"], "romams.training.basis_finalize", 0.05, 0.9)
 
 
@@ -93,16 +95,18 @@ def basis_finalize(job_id: str) -> None:
     def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
         p = job["params"]
         s = store()
-        kids = sorted(s.children(job_id), key=lambda k: k["params"]["index"])
-        snaps = np.hstack([s.load_artifact(k["id"], "snapshots") for k in kids])
+        with s.unit_of_work() as uow:
+            kids = sorted(uow.jobs.children(job_id), key=lambda k: k["params"]["index"])
+            snaps = np.hstack([uow.artifacts.load(k["id"], "snapshots") for k in kids])
         designs = np.vstack([np.asarray(k["params"]["designs"], dtype=float) for k in kids])
         wing = load_wing(job["wing_id"])
         progress(0.92, f"SVD of {snaps.shape[1]} snapshots")
         basis = build_basis(snaps, mac_threshold=float(p["mac_threshold"]), max_basis=int(p["max_basis"]),
                             n_modes=int(p["modes"]), designs=designs, design_names=list(wing.variable_names),
                             wing_name=wing.name)
-        bid = s.save_basis(job["wing_id"], basis, p, job_id=job_id)
-        active = activate_first_basis(s, int(job["wing_id"]), bid)
+        with s.unit_of_work() as uow:  # stored and (if first) activated together
+            bid = uow.bases.save(job["wing_id"], basis, p, job_id=job_id)
+            active = activate_first_basis(uow, int(job["wing_id"]), bid)
         return {"basis_id": bid, "active": active, "n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac),
                 "capped": bool(basis.capped), "min_mac_by_m": basis.min_mac_by_m.tolist()}
 
@@ -127,7 +131,7 @@ def training_job(job_id: str) -> None:
                             nb=int(p["nb"]), progress=progress, **options)
         except TrainingError as exc:
             raise JobFailed(f"training failed: {exc}") from exc
-        rid = store().save_rom(wing_id, basis_id, rom, p["identity"], job_id=job_id)
+        rid = store().roms.save(wing_id, basis_id, rom, p["identity"], job_id=job_id)
         nrmse = np.atleast_1d(np.asarray(getattr(rom, "validation_nrmse", np.nan), dtype=float))
         return {"rom_id": rid, "mach": float(p["mach"]), "validation_nrmse": nrmse.tolist()}
 

@@ -13,12 +13,12 @@ from api.deps import Service, require_key, service, wing_or_404
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import BatchRequest, FlutterRequest, FlutterSummary
 from romams import jobs
+from romams.persistence import FINAL, JobStatus, content_hash
 from romams.serialize import to_jsonable
 from romams.services.errors import ServiceError
 from romams.services.flight import FlightCondition
 from romams.services.models import resolve_basis_id, trained_rom_ids
 from romams.services.queue import TASK_FOR_KIND
-from romams.store import content_hash
 
 router = APIRouter(tags=["flutter"])
 
@@ -71,7 +71,7 @@ def _inline_modes(svc: Service, wing: Any, modes: dict[str, Any]) -> int:
     except ValueError as exc:
         raise from_value_error(exc, "modes") from exc
     summary = {"n_nodes": int(m.nodes.shape[0]), "n_modes": int(m.shapes.shape[1])}
-    return svc.store.save_modes(m, "json", summary=summary)
+    return svc.store.modes.save(m, "json", summary=summary)
 
 
 def _wait(svc: Service, job_id: str, timeout_s: float) -> dict[str, Any] | None:
@@ -104,7 +104,7 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
         modes_id = _inline_modes(svc, w, body.modes.model_dump())
     elif modes_id is not None:
         try:
-            svc.store.load_modes(modes_id)
+            svc.store.modes.load(modes_id)
         except KeyError as exc:
             raise Problem(404, f"modes_id: no uploaded modes {modes_id}", "modes_id") from exc
     else:
@@ -114,7 +114,7 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
     h = (content_hash("flutter", wid, bid, rom_ids, condition, design)
          if modes_id is None and body.method == "rom-ams" else None)
     if h is not None and body.store:
-        cached = svc.store.find_evaluation(h)
+        cached = svc.store.evaluations.find(h)
         if cached is not None:
             return {**cached["summary"], "evaluation_id": cached["id"], "cached": True}
     params = {"basis_id": bid, "rom_ids": rom_ids, "design": design, "modes_id": modes_id, "store": body.store,
@@ -123,20 +123,20 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
         job_id = jobs.submit(svc.store, svc.celery, "flutter-pms", params, wing_id=wid)
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{job_id}"
-        return {"job_id": job_id, "status": "queued"}
+        return {"job_id": job_id, "status": JobStatus.QUEUED}
     job_id = jobs.submit(svc.store, svc.celery, "flutter", params, wing_id=wid)
     out = jobs.wait_result(svc.celery, job_id, svc.settings.sync_timeout_s)
     if out is not None and out.get("status") is None:  # not run by this delivery (e.g. redelivered): the row knows
         out = None
-        job = svc.store.get_job(job_id)
-        if job is not None and job["status"] in ("succeeded", "failed", "cancelled"):
+        job = svc.store.jobs.get(job_id)
+        if job is not None and job["status"] in FINAL:
             out = {"status": job["status"], "result": job["result"], "error": (job["result"] or {}).get("error")
-                   if job["status"] == "failed" and isinstance(job["result"], dict) else None}
+                   if job["status"] == JobStatus.FAILED and isinstance(job["result"], dict) else None}
     if out is None:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{job_id}"
-        return {"job_id": job_id, "status": "queued"}
-    if out["status"] != "succeeded":
+        return {"job_id": job_id, "status": JobStatus.QUEUED}
+    if out["status"] != JobStatus.SUCCEEDED:
         raise _failed({"id": job_id, "result": {"error": out.get("error")}, "error": out["status"]})
     return {**out["result"], "job_id": job_id}
 
@@ -153,28 +153,29 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
     chunk = max(1, min(svc.settings.batch_chunk, math.ceil(n / 4)))
     condition = _condition(body).to_json()
     params = {"basis_id": bid, "rom_ids": rom_ids, "n": n, "method": body.method, "condition": condition}
-    parent = svc.store.create_job("flutter-batch", params, wing_id=wid, stage="fanout",
-                                  message=f"{n} designs in {math.ceil(n / chunk)} chunks")
-    kids = [svc.store.create_job("flutter-chunk", {"basis_id": bid, "rom_ids": rom_ids, "index": k,
-                                                   "condition": condition, "designs": vectors[i:i + chunk]},
-                                 wing_id=wid, parent_id=parent)
-            for k, i in enumerate(range(0, n, chunk))]
+    with svc.store.unit_of_work() as uow:  # parent and chunks committed together, before any message is sent
+        parent = uow.jobs.create("flutter-batch", params, wing_id=wid, stage="fanout",
+                                 message=f"{n} designs in {math.ceil(n / chunk)} chunks")
+        kids = [uow.jobs.create("flutter-chunk", {"basis_id": bid, "rom_ids": rom_ids, "index": k,
+                                                  "condition": condition, "designs": vectors[i:i + chunk]},
+                                wing_id=wid, parent_id=parent)
+                for k, i in enumerate(range(0, n, chunk))]
     try:
         for k in kids:
             jobs.send(svc.celery, TASK_FOR_KIND["flutter-chunk"], k, svc.store)
     except jobs.BrokerUnavailable:
-        svc.store.cancel_job(parent)
+        svc.store.jobs.cancel(parent)
         raise
     if n > svc.settings.batch_sync_max:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{parent}"
-        return {"job_id": parent, "status": "queued", "n": n}
+        return {"job_id": parent, "status": JobStatus.QUEUED, "n": n}
     job = _wait(svc, parent, svc.settings.sync_timeout_s)
     if job is None:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{parent}"
-        return {"job_id": parent, "status": "running", "n": n}
-    if job["status"] != "succeeded":
+        return {"job_id": parent, "status": JobStatus.RUNNING, "n": n}
+    if job["status"] != JobStatus.SUCCEEDED:
         raise _failed(job)
     return {"results": job["result"]["results"], "job_id": parent}
 
@@ -182,7 +183,7 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
 # ---- stored evaluations ---------------------------------------------------------------------------
 def _evaluation_or_404(svc: Service, evaluation_id: int, full: bool = False) -> dict[str, Any]:
     """Stored evaluation or a 404 problem."""
-    ev = svc.store.get_evaluation(evaluation_id, full=full)
+    ev = svc.store.evaluations.get(evaluation_id, full=full)
     if ev is None:
         raise Problem(404, f"evaluation_id: no evaluation {evaluation_id}", "evaluation_id")
     return ev
@@ -192,7 +193,7 @@ def _evaluation_or_404(svc: Service, evaluation_id: int, full: bool = False) -> 
 def list_evaluations(wing_id: int | None = None, limit: int = Query(default=20, ge=1, le=500),
                      svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Newest stored evaluations (summaries)."""
-    return svc.store.list_evaluations(wing_id, limit)
+    return svc.store.evaluations.recent(wing_id, limit)
 
 
 @router.get("/evaluations/{evaluation_id}")
@@ -246,10 +247,10 @@ def evaluation_plot(evaluation_id: int, fmt: Literal["png", "svg"], kind: Litera
 
 def baseline_evaluation(svc: Service, ev: dict[str, Any]) -> Any:
     """The stored evaluation of the wing's baseline on the same basis (full result), if there is one."""
-    for other in svc.store.list_evaluations(ev["wing_id"], limit=500):
+    for other in svc.store.evaluations.recent(ev["wing_id"], limit=500):
         if other["basis_id"] != ev["basis_id"] or other["method"] != ev["method"]:
             continue
-        full = svc.store.get_evaluation(other["id"], full=True) or {}
+        full = svc.store.evaluations.get(other["id"], full=True) or {}
         req = full.get("request", {})
         if req.get("design") is None and req.get("modes_id") is None and req.get("modes") is None:
             return full["result"]

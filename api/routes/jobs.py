@@ -2,30 +2,31 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 from fastapi import APIRouter, Depends, Query
 
 from api.deps import Service, require_key, service
 from api.problems import Problem
+from romams.persistence import JobStatus
 
 router = APIRouter(tags=["jobs"])
 
 
 def job_or_404(svc: Service, job_id: str) -> dict[str, Any]:
     """Job dict or a 404 problem naming the job id."""
-    job = svc.store.get_job(job_id) if len(job_id) <= 64 else None
+    job = svc.store.jobs.get(job_id) if len(job_id) <= 64 else None
     if job is None:
         raise Problem(404, f"job_id: no job {job_id!r}", "job_id")
     return job
 
 
 @router.get("/jobs")
-def list_jobs(status: Literal["queued", "running", "succeeded", "failed", "cancelled"] | None = None,
+def list_jobs(status: JobStatus | None = None,
               kind: str | None = Query(default=None, max_length=40), limit: int = Query(default=50, ge=1, le=1000),
               include_children: bool = False, svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Newest jobs first (fan-out chunk jobs only with include_children=true)."""
-    return svc.store.list_jobs(limit=limit, status=status, kind=kind, top_level=not include_children)
+    return svc.store.jobs.recent(limit=limit, status=status, kind=kind, top_level=not include_children)
 
 
 @router.get("/jobs/{job_id}")
@@ -38,7 +39,7 @@ def get_job(job_id: str, svc: Service = Depends(service)) -> dict[str, Any]:
 def cancel_job(job_id: str, svc: Service = Depends(service)) -> dict[str, Any]:
     """Cancel a queued or running job (its task stops at its next progress step)."""
     job = job_or_404(svc, job_id)
-    if not svc.store.cancel_job(job_id):
+    if not svc.store.jobs.cancel(job_id):
         raise Problem(409, f"job_id: job {job_id} is already {job['status']}", "job_id",
                       extra={"job_status": job["status"]})
-    return svc.store.get_job(job_id) or job
+    return svc.store.jobs.get(job_id) or job

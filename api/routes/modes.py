@@ -63,7 +63,7 @@ async def upload_modes(bdf: UploadFile | None = File(default=None), op2: UploadF
                 raise invalid("file", "give 'file' (.json/.npz) or both 'bdf' and 'op2'")
         except ValueError as exc:
             raise from_value_error(exc, "file" if file is not None else "bdf") from exc
-    mid = svc.store.save_modes(modes, source, name, summary={"n_nodes": int(modes.nodes.shape[0]),
+    mid = svc.store.modes.save(modes, source, name, summary={"n_nodes": int(modes.nodes.shape[0]),
                                                             "n_modes": int(modes.shapes.shape[1])})
     return {"id": mid, "n_nodes": int(modes.nodes.shape[0]), "n_modes": int(modes.shapes.shape[1]),
             "frequencies_hz": [float(f) for f in modes.frequencies_hz]}

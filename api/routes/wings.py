@@ -13,8 +13,8 @@ from api.deps import Service, require_key, service, wing_or_404
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import ActiveBasis, BasisRequest, Created, JobRef, RomRequest, WingCreate
 from romams.jobs import submit
+from romams.persistence import content_hash, rom_key
 from romams.services.models import resolve_basis_id
-from romams.store import content_hash, rom_key
 
 router = APIRouter(tags=["wings"])
 
@@ -24,13 +24,13 @@ _RESERVED = {"mesh", "shapes", "mach", "solver", "na", "nb", "progress"}
 
 def wing_view(wid: int, wing: Any, svc: Service) -> dict[str, Any]:
     """JSON view of a wing with its design variables, bases and ROMs."""
-    info = svc.store.wing_info(wid) or {}
+    info = svc.store.wings.info(wid) or {}
     dvs = [{"name": v.name, "lower": v.lower, "upper": v.upper, "unit": v.unit, "description": v.description}
            for v in getattr(wing, "design_variables", ())]
     return {"id": wid, "name": info.get("name"), "created_at": info.get("created_at"),
             "design_variables": dvs, "has_baseline": bool(getattr(wing, "has_baseline", False)),
-            "latest_basis_id": svc.store.latest_basis_id(wid), "active_basis_id": svc.store.active_basis_id(wid),
-            "trained_machs": sorted({r["mach"] for r in svc.store.list_roms(wid)}),
+            "latest_basis_id": svc.store.bases.latest_id(wid), "active_basis_id": svc.store.wings.active_basis(wid),
+            "trained_machs": sorted({r["mach"] for r in svc.store.roms.of_wing(wid)}),
             "definition": info.get("definition", {}).get("data")}
 
 
@@ -54,7 +54,7 @@ def create_wing(body: WingCreate, svc: Service = Depends(service)) -> dict[str, 
         except ValueError as exc:
             raise from_value_error(exc) from exc
     try:
-        wid = svc.store.create_wing(wing, body.name)
+        wid = svc.store.wings.create(wing, body.name)
     except ValueError as exc:
         raise Problem(409, str(exc), "name") from exc
     return {"id": wid}
@@ -64,11 +64,12 @@ def create_wing(body: WingCreate, svc: Service = Depends(service)) -> dict[str, 
 def list_wings(svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """All stored wings."""
     out = []
-    for w in svc.store.list_wings():
-        w["latest_basis_id"] = svc.store.latest_basis_id(w["id"])
-        w["active_basis_id"] = svc.store.active_basis_id(w["id"])
-        w["trained_machs"] = sorted({r["mach"] for r in svc.store.list_roms(w["id"])})
-        out.append(w)
+    with svc.store.unit_of_work() as uow:  # one session for the whole listing
+        for w in uow.wings.all():
+            w["latest_basis_id"] = uow.bases.latest_id(w["id"])
+            w["active_basis_id"] = uow.wings.active_basis(w["id"])
+            w["trained_machs"] = sorted({r["mach"] for r in uow.roms.of_wing(w["id"])})
+            out.append(w)
     return out
 
 
@@ -92,7 +93,7 @@ def start_basis(wing: str, body: BasisRequest, response: Response, svc: Service 
         raise invalid("wing", "the wing has no design variables to sample")
     params = body.model_dump()
     key = content_hash("basis", wid, params)
-    active = svc.store.find_active_job(key)
+    active = svc.store.jobs.find_active(key)
     if active is not None:
         response.status_code = 200
         return {"job_id": active["id"], "existing": True}
@@ -104,7 +105,7 @@ def set_active_basis(wing: str, body: ActiveBasis, svc: Service = Depends(servic
     """Make one of the wing's bases the active one (what evaluations and trainings use unless told otherwise)."""
     wid, _ = wing_or_404(svc, wing)
     bid = resolve_basis_id(svc.store, wid, body.basis_id)
-    svc.store.set_active_basis(wid, bid)
+    svc.store.wings.set_active_basis(wid, bid)
     return {"wing_id": wid, "active_basis_id": bid}
 
 
@@ -113,7 +114,7 @@ def list_bases(wing: str, svc: Service = Depends(service)) -> list[dict[str, Any
     """Bases of a wing, newest first: parameters, size m, MAC table (worst MAC by m, per-sample MACs)."""
     wid, _ = wing_or_404(svc, wing)
     out = []
-    for b in svc.store.list_bases(wid):
+    for b in svc.store.bases.of_wing(wid):
         sm = b["summary"]
         n_modes = int(sm.get("n_modes") or b["params"].get("modes") or 1)
         table = sm.get("mac_table")
@@ -166,12 +167,12 @@ def start_training(wing: str, body: RomRequest, response: Response, svc: Service
     created = False
     for mach in machs:
         key = rom_key(wid, basis_id, mach, identity)
-        rom_id = svc.store.find_rom_id(wid, basis_id, mach, identity)
+        rom_id = svc.store.roms.find_id(wid, basis_id, mach, identity)
         if rom_id is not None:
-            row = next((r for r in svc.store.list_roms(wid, basis_id) if r["id"] == rom_id), {})
+            row = next((r for r in svc.store.roms.of_wing(wid, basis_id) if r["id"] == rom_id), {})
             items.append({"mach": mach, "job_id": row.get("job_id"), "rom_id": rom_id, "existing": True})
             continue
-        active = svc.store.find_active_job(key)
+        active = svc.store.jobs.find_active(key)
         if active is not None:
             items.append({"mach": mach, "job_id": active["id"], "rom_id": None, "existing": True})
             continue
@@ -189,20 +190,20 @@ def start_training(wing: str, body: RomRequest, response: Response, svc: Service
 def list_roms(wing: str, basis_id: int | None = None, svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Trained ROMs of a wing: Mach, solver settings, validation fit error."""
     wid, _ = wing_or_404(svc, wing)
-    return svc.store.list_roms(wid, basis_id)
+    return svc.store.roms.of_wing(wid, basis_id)
 
 
 def _basis_or_404(svc: Service, basis_id: int) -> Any:
     """Stored Basis or a 404 problem."""
     try:
-        return svc.store.load_basis(basis_id)
+        return svc.store.bases.load(basis_id)
     except KeyError as exc:
         raise Problem(404, f"basis_id: no basis {basis_id}", "basis_id") from exc
 
 
 def _basis_wing(svc: Service, basis_id: int) -> Any:
     """WingDefinition the basis belongs to."""
-    wid = svc.store.basis_wing_id(basis_id)
+    wid = svc.store.bases.wing_id(basis_id)
     if wid is None:
         raise Problem(404, f"basis_id: no basis {basis_id}", "basis_id")
     return wing_or_404(svc, str(wid))[1]

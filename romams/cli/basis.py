@@ -22,9 +22,9 @@ def _resolve_wing(name: str, use_store: bool) -> Any:
     from romams_core.wing import template
 
     if use_store:
-        from romams.store import open_store
+        from romams.persistence import open_store
 
-        found = open_store().find_wing(name)
+        found = open_store().wings.find(name)
         if found is not None:
             return found[1]
     try:
@@ -109,18 +109,18 @@ def basis_command(
             holdout_poor_fits=int(np.sum(hold < mac)),
         )
     if store:
-        from romams.store import open_store
+        from romams.persistence import open_store
 
-        st = open_store()
-        wing_id = st.ensure_wing(w)
         params = {"samples": samples, "modes": modes, "mac_threshold": mac, "max_basis": max_basis, "seed": seed}
-        report["wing_id"] = wing_id
-        report["basis_id"] = st.save_basis(wing_id, basis, params)
-        if activate:
-            st.set_active_basis(wing_id, report["basis_id"])
-        else:
-            activate_first_basis(st, wing_id, report["basis_id"])
-        report["active_basis_id"] = st.active_basis_id(wing_id)
+        with open_store().unit_of_work() as uow:  # stored and (if asked, or first) activated together
+            wing_id = uow.wings.ensure(w)
+            report["wing_id"] = wing_id
+            report["basis_id"] = uow.bases.save(wing_id, basis, params)
+            if activate:
+                uow.wings.set_active_basis(wing_id, report["basis_id"])
+            else:
+                activate_first_basis(uow, wing_id, report["basis_id"])
+            report["active_basis_id"] = uow.wings.active_basis(wing_id)
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(out, **basis_arrays(basis))

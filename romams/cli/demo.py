@@ -94,7 +94,7 @@ def demo_command(
     processes: int = typer.Option(0, "--processes", min=0, help="parallel training processes (0: CPU count)"),
 ) -> None:
     """Run the ROM-AMS pipeline on the cropped delta wing and write DIR/summary.json plus plots."""
-    from romams.store import open_store
+    from romams.persistence import open_store
     from romams_core.basis import project
     from romams_core.mesh import standard_mesh
     from romams_core.structure.modal import modal_analysis

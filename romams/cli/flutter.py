@@ -79,9 +79,9 @@ def flutter_command(
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
 ) -> None:
     """Flutter analysis of one structure with the wing's ROM-AMS models (building / training what is missing)."""
+    from romams.persistence import open_store
     from romams.pipeline import cli_models, resolve_wing, rom_identity, train_shapes
     from romams.services.evaluation import evaluate_structure_summary, pms_summary, structure_modal
-    from romams.store import open_store
 
     if method not in ("rom-ams", "rom-pms"):
         raise typer.BadParameter("must be rom-ams or rom-pms", param_hint="--method")

@@ -19,9 +19,9 @@ def resolve_wing(name: str) -> WingDefinition:
         return template(name)
     except ValueError as tmpl_error:
         try:
-            from romams.store import open_store
+            from romams.persistence import open_store
 
-            found = open_store().find_wing(name)
+            found = open_store().wings.find(name)
         except Exception:  # noqa: BLE001 - a missing or unreachable store just means "not stored"
             found = None
         if found is None:

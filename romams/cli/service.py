@@ -44,8 +44,8 @@ def serve(
     """Run the HTTP API and dashboard; by default also child workers on the same (embedded) database and broker."""
     import uvicorn
 
+    from romams.persistence import open_store
     from romams.settings import get_settings
-    from romams.store import open_store
 
     settings = get_settings()
     open_store(settings)  # creates the data dir and migrates SQLite before the workers start

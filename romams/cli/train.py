@@ -41,7 +41,7 @@ def train_command(
     plot: Path | None = typer.Option(None, "--plot", help="write PNG figures (signals, validation) here"),
 ) -> None:
     """Train (or find in the store) the ROM of the wing's basis at one Mach; builds the basis first if needed."""
-    from romams.store import open_store
+    from romams.persistence import open_store
     from romams_core.training import TrainingError
 
     options: dict[str, Any] = {}

@@ -20,10 +20,10 @@ def resolve_basis_id(store: Any, wing_id: int, basis_id: int | None = None) -> i
     """The basis an evaluation of ``wing_id`` uses: ``basis_id`` when given (it must belong to the wing), else the
     wing's active basis. NotFound / Conflict naming ``basis_id``."""
     if basis_id is not None:
-        if store.basis_wing_id(int(basis_id)) != int(wing_id):
+        if store.bases.wing_id(int(basis_id)) != int(wing_id):
             raise NotFound("basis_id", f"basis {basis_id} does not belong to wing {wing_id}")
         return int(basis_id)
-    active = store.active_basis_id(int(wing_id))
+    active = store.wings.active_basis(int(wing_id))
     if active is None:
         raise Conflict("basis_id", f"wing {wing_id} has no basis yet; POST /api/v1/wings/{wing_id}/basis first")
     return int(active)
@@ -33,7 +33,7 @@ def trained_rom_ids(store: Any, wing_id: int, basis_id: int, machs: Sequence[flo
                     field: str = "machs") -> list[list[float]]:
     """[(mach, rom_id)] of the newest ROM of each requested (default: every trained) Mach on the basis."""
     trained: dict[float, int] = {}
-    for r in sorted(store.list_roms(wing_id, basis_id), key=lambda r: r["id"]):  # the newest of each Mach wins
+    for r in sorted(store.roms.of_wing(wing_id, basis_id), key=lambda r: r["id"]):  # the newest of each Mach wins
         trained[round(float(r["mach"]), 6)] = int(r["id"])
     if not trained:
         raise Conflict(field, f"no ROM is trained on basis {basis_id}; POST /api/v1/wings/{wing_id}/roms first")
@@ -61,7 +61,7 @@ def load_models(wing_id: int, wing: Any, basis_id: int, rom_ids: Sequence[Sequen
 
 def activate_first_basis(store: Any, wing_id: int, basis_id: int) -> bool:
     """Make ``basis_id`` the wing's active basis if it has none yet; True when it became active."""
-    if store.active_basis_id(int(wing_id)) is not None:
+    if store.wings.active_basis(int(wing_id)) is not None:
         return False
-    store.set_active_basis(int(wing_id), int(basis_id))
+    store.wings.set_active_basis(int(wing_id), int(basis_id))
     return True

@@ -91,14 +91,15 @@ def test_training_jobs_store_roms_and_resubmission_returns_existing(svc):
 
 def _direct(svc, design):
     """The same evaluation done in this process straight from the core (reference for the service)."""
-    from romams.store import open_store
+    from romams.persistence import open_store
     from romams_core.evaluate import evaluate_structure
     from romams_core.structure.modal import modal_analysis
 
     store = open_store(svc.settings)
-    _, wing = store.find_wing(svc.wing_id)
-    bid, basis = store.latest_basis(svc.wing_id)
-    roms = {r["mach"]: store.load_rom(r["id"]) for r in store.list_roms(svc.wing_id, bid)}
+    with store.unit_of_work() as uow:
+        _, wing = uow.wings.find(svc.wing_id)
+        bid, basis = uow.bases.latest(svc.wing_id)
+        roms = {r["mach"]: uow.roms.load(r["id"]) for r in uow.roms.of_wing(svc.wing_id, bid)}
     modal = modal_analysis(wing, design=wing.design_vector(design), n_modes=basis.n_modes)
     return evaluate_structure(modal, basis.shapes, roms, mac_threshold=basis.mac_threshold,
                               zeta=wing.modal_damping or None)  # the service applies the wing's damping
@@ -207,10 +208,10 @@ def test_large_batch_returns_a_job(svc):
 
 
 def test_external_modes_give_the_same_flutter_point(svc):
-    from romams.store import open_store
+    from romams.persistence import open_store
     from romams_core.structure.modal import modal_analysis
 
-    _, wing = open_store(svc.settings).find_wing(svc.wing_id)
+    _, wing = open_store(svc.settings).wings.find(svc.wing_id)
     modal = modal_analysis(wing, design=wing.design_vector(DESIGN), n_modes=3)
     nodes = np.column_stack([modal.fe_xy, np.zeros(len(modal.fe_xy))])
     body = {"modes": {"nodes": nodes.tolist(), "shapes": modal.fe_shapes.T.tolist(),

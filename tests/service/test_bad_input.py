@@ -99,15 +99,15 @@ def test_training_errors_once_a_basis_exists(client, tmp_path):
     """With a (real) stored basis: supersonic UVLM, unknown options, another wing's basis."""
     import numpy as np
 
-    from romams.store import open_store
+    from romams.persistence import open_store
     from romams_core.basis import build_basis
 
     store = client.app.state.service.store
     wid = client.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
     other = client.post("/api/v1/wings", json={"template": "goland"}).json()["id"]
     snaps = np.linalg.qr(np.random.default_rng(0).standard_normal((187, 6)))[0]
-    bid = store.save_basis(wid, build_basis(snaps, n_modes=3), {"samples": 2, "modes": 3})
-    assert open_store(client.app.state.service.settings).latest_basis(wid)[0] == bid
+    bid = store.bases.save(wid, build_basis(snaps, n_modes=3), {"samples": 2, "modes": 3})
+    assert open_store(client.app.state.service.settings).bases.latest(wid)[0] == bid
     before = _counts(client)
     roms = f"/api/v1/wings/{wid}/roms"
     problem(client.post(roms, json={"mach": 1.2}), 422, "mach", "subsonic")

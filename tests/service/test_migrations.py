@@ -9,8 +9,8 @@ import sys
 import pytest
 from sqlalchemy import create_engine, inspect
 
-from romams.db import Base
-from romams.store import head_revision
+from romams.persistence import head_revision
+from romams.persistence.models import Base
 
 from .conftest import ROOT
 
@@ -72,8 +72,8 @@ def test_packaged_alembic_ini_works_from_any_directory(tmp_path):
     assert _revision(url) == head_revision() and _model_diff(url) == []
     env = {k: v for k, v in os.environ.items() if not k.startswith("ROMAMS_")}
     url2 = f"sqlite:///{tmp_path / 'mod.db'}"
-    r = subprocess.run([sys.executable, "-m", "romams.store", "upgrade"], cwd=tmp_path, capture_output=True, text=True,
-                       env={**env, "ROMAMS_DATABASE_URL": url2}, timeout=120)
+    r = subprocess.run([sys.executable, "-m", "romams.persistence", "upgrade"], cwd=tmp_path, capture_output=True,
+                       text=True, env={**env, "ROMAMS_DATABASE_URL": url2}, timeout=120)
     assert r.returncode == 0, r.stderr
     assert _revision(url2) == head_revision()
 
@@ -86,11 +86,11 @@ def test_postgres_upgrade_head_matches_models(pg_url):
 
 @pytest.mark.services
 def test_open_store_refuses_an_unmigrated_postgres_database(pg_url, tmp_path):
+    from romams.persistence import open_store
     from romams.settings import Settings
-    from romams.store import open_store
 
     with pytest.raises(RuntimeError, match="alembic upgrade head"):
         open_store(Settings(data_dir=tmp_path, database_url=pg_url))
     assert _alembic(["upgrade", "head"], pg_url).returncode == 0
     store = open_store(Settings(data_dir=tmp_path, database_url=pg_url))
-    assert store.engine.dialect.name == "postgresql" and store.list_wings() == []
+    assert store.engine.dialect.name == "postgresql" and store.wings.all() == []

@@ -56,10 +56,10 @@ def test_cli_api_and_in_process_give_identical_results(tmp_path, monkeypatch):
     assert from_cli["flight_condition"]["sweep"] == "constant-speed"
 
     # 2. in-process: the use case on the stored models
+    from romams.persistence import open_store
     from romams.pipeline import resolve_wing
     from romams.services.evaluation import evaluate_structure_summary
     from romams.services.models import load_models, resolve_basis_id, trained_rom_ids
-    from romams.store import open_store
     from romams_core.mesh import standard_mesh
 
     store = open_store()

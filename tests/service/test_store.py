@@ -1,4 +1,4 @@
-"""Serializer round trip, store repositories and guarded job transitions on a fresh SQLite database."""
+"""Serializer round trip, repositories, units of work and guarded job transitions on a fresh SQLite database."""
 
 from __future__ import annotations
 
@@ -10,8 +10,18 @@ import pytest
 from sqlalchemy import inspect
 
 from romams import serialize
+from romams.persistence import (
+    ACTIVE,
+    FINAL,
+    JobStatus,
+    Store,
+    content_hash,
+    head_revision,
+    open_store,
+    rom_key,
+    schema_revision,
+)
 from romams.settings import Settings
-from romams.store import Store, content_hash, head_revision, open_store, rom_key, schema_revision
 
 
 @serialize.register
@@ -109,79 +119,127 @@ def test_to_jsonable_maps_nonfinite_to_none():
     assert serialize.to_jsonable({"a": np.array([1.0, np.inf]), "b": np.float32(2.0)}) == {"a": [1.0, None], "b": 2.0}
 
 
-@pytest.fixture()
-def store(tmp_path) -> Store:
+@pytest.fixture(params=["sqlite", pytest.param("postgresql", marks=pytest.mark.services)])
+def store(request, tmp_path) -> Store:
+    """A fresh store on SQLite, and (services) on an empty PostgreSQL database brought to head."""
+    if request.param == "postgresql":
+        url = request.getfixturevalue("pg_url")
+        return open_store(Settings(data_dir=tmp_path / "data", database_url=url), migrate=True)
     return open_store(Settings(data_dir=tmp_path / "data"))
 
 
-def test_open_store_creates_sqlite_at_alembic_head(tmp_path, store):
+def test_open_store_creates_sqlite_at_alembic_head(tmp_path):
+    store = open_store(Settings(data_dir=tmp_path / "data"))
     assert (tmp_path / "data" / "romams.db").exists()
     assert schema_revision(store.engine) == head_revision()
     names = set(inspect(store.engine).get_table_names())
     assert {"wings", "bases", "roms", "jobs", "evaluations", "modes_uploads", "alembic_version"} <= names
     # opening again is a no-op
     assert schema_revision(open_store(Settings(data_dir=tmp_path / "data")).engine) == head_revision()
+    assert store.ping() == "sqlite"
 
 
 def test_wings_bases_roms_evaluations(store):
-    wid = store.ensure_wing(Named("wing-a", 1.0))
-    assert store.ensure_wing(Named("wing-a", 2.0)) == wid  # by name
+    wid = store.wings.ensure(Named("wing-a", 1.0))
+    assert store.wings.ensure(Named("wing-a", 2.0)) == wid  # by name
     with pytest.raises(ValueError, match="name"):
-        store.create_wing(Named("wing-a", 3.0))
-    assert store.find_wing("wing-a")[0] == wid and store.find_wing(wid)[1] == Named("wing-a", 1.0)
-    assert store.find_wing("nope") is None and store.find_wing(999) is None
-    assert [w["name"] for w in store.list_wings()] == ["wing-a"]
+        store.wings.create(Named("wing-a", 3.0))
+    assert store.wings.find("wing-a")[0] == wid and store.wings.find(wid)[1] == Named("wing-a", 1.0)
+    assert store.wings.find("nope") is None and store.wings.find(999) is None
+    assert [w["name"] for w in store.wings.all()] == ["wing-a"]
 
     obj = _outer()
-    b1 = store.save_basis(wid, obj, {"samples": 5})
-    b2 = store.save_basis(wid, obj, {"samples": 6})
-    bid, basis = store.latest_basis(wid)
+    b1 = store.bases.save(wid, obj, {"samples": 5})
+    b2 = store.bases.save(wid, obj, {"samples": 6})
+    bid, basis = store.bases.latest(wid)
     assert bid == b2 > b1 and np.array_equal(basis.shapes, obj.shapes)
-    assert [b["params"]["samples"] for b in store.list_bases(wid)] == [6, 5]
+    assert [b["params"]["samples"] for b in store.bases.of_wing(wid)] == [6, 5]
+    assert store.bases.wing_id(b1) == wid and store.bases.wing_id(999) is None
+    with pytest.raises(KeyError):
+        store.bases.load(999)
 
     params = {"solver": "uvlm", "na": 8, "nb": 8}
     rom = Inner(np.ones(3), "rom", 0.87)
-    rid = store.save_rom(wid, bid, rom, {**params, "mach": 0.87})
-    found = store.find_rom(wid, bid, 0.87, {**params, "mach": 0.87})
+    rid = store.roms.save(wid, bid, rom, {**params, "mach": 0.87})
+    found = store.roms.find(wid, bid, 0.87, {**params, "mach": 0.87})
     assert found is not None and found[0] == rid and np.array_equal(found[1].omega, rom.omega)
-    assert store.find_rom(wid, bid, 0.87, {**params, "mach": 0.87, "na": 6}) is None
+    assert store.roms.find(wid, bid, 0.87, {**params, "mach": 0.87, "na": 6}) is None
     assert rom_key(wid, bid, 0.87, params) == rom_key(wid, bid, 0.8700000001, params)
-    rid2 = store.save_rom(wid, bid, rom, {**params, "mach": 0.87})  # same identity replaces
-    assert [r["id"] for r in store.list_roms(wid)] == [rid2]
+    rid2 = store.roms.save(wid, bid, rom, {**params, "mach": 0.87})  # same identity replaces
+    assert [r["id"] for r in store.roms.of_wing(wid)] == [rid2]
 
     h = content_hash("eval", wid, [1.0, 2.0])
-    eid = store.save_evaluation(wid, obj, summary={"mass_kg": 1.25}, request={"design": [1, 2]}, basis_id=bid,
-                                content_hash=h)
-    ev = store.get_evaluation(eid, full=True)
+    eid = store.evaluations.save(wid, obj, summary={"mass_kg": 1.25}, request={"design": [1, 2]}, basis_id=bid,
+                                 content_hash=h)
+    ev = store.evaluations.get(eid, full=True)
     assert ev["summary"] == {"mass_kg": 1.25} and np.array_equal(ev["result"].shapes, obj.shapes)
-    assert store.find_evaluation(h)["id"] == eid
-    assert [e["id"] for e in store.list_evaluations(wid)] == [eid]
+    assert store.evaluations.find(h)["id"] == eid
+    assert [e["id"] for e in store.evaluations.recent(wid)] == [eid]
+
+    mid = store.modes.save(Inner(np.arange(2.0), "m", 1.0), "json", "x.json", summary={"n": 2})
+    assert store.modes.load(mid).label == "m"
+
+
+def test_a_unit_of_work_commits_together_or_not_at_all(store):
+    with store.unit_of_work() as uow:
+        wid = uow.wings.create(Named("wing-u", 1.0))
+        bid = uow.bases.save(wid, _outer(), {"samples": 1})
+        assert uow.bases.latest_id(wid) == bid  # visible inside the unit before the commit
+        with pytest.raises(ValueError, match="already exists"):  # a refused insert leaves the unit usable
+            uow.wings.create(Named("wing-u", 2.0))
+        jid = uow.jobs.create("basis", {}, wing_id=wid)
+    assert store.bases.latest_id(wid) == bid and store.jobs.status(jid) == JobStatus.QUEUED
+
+    with pytest.raises(RuntimeError, match="boom"), store.unit_of_work() as uow:
+        other = uow.wings.create(Named("wing-v", 1.0))
+        uow.jobs.create("basis", {}, wing_id=other, job_id="rolled-back")
+        raise RuntimeError("boom")
+    assert store.wings.find("wing-v") is None and store.jobs.get("rolled-back") is None
+
+
+def test_job_status_enum_is_the_stored_text():
+    assert JobStatus("queued") is JobStatus.QUEUED and JobStatus.FAILED == "failed"
+    assert f"{JobStatus.RUNNING}" == "running" and JobStatus.RUNNING.value == "running"
+    assert FINAL == {"succeeded", "failed", "cancelled"} and ACTIVE == {"queued", "running"}
+    assert JobStatus.CANCELLED.is_final and not JobStatus.QUEUED.is_final
 
 
 def test_job_transitions_are_guarded(store):
-    jid = store.create_job("training", {"mach": 0.8}, key="k1")
-    assert store.get_job(jid)["status"] == "queued" and store.find_active_job("k1")["id"] == jid
-    assert store.start_job(jid, max_deliveries=2) == (True, 1)
-    assert store.set_progress(jid, 0.25, "a quarter")
-    assert store.get_job(jid)["progress"] == pytest.approx(0.25, abs=1e-12)
-    assert store.start_job(jid, max_deliveries=2) == (True, 2)  # a redelivery
-    ok, n = store.start_job(jid, max_deliveries=2)  # third delivery: over the cap -> failed with reason
+    jid = store.jobs.create("training", {"mach": 0.8}, key="k1")
+    assert store.jobs.get(jid)["status"] == "queued" and store.jobs.find_active("k1")["id"] == jid
+    assert store.jobs.status(jid) is JobStatus.QUEUED and store.jobs.status("nope") is None
+    assert store.jobs.start(jid, max_deliveries=2) == (True, 1)
+    assert store.jobs.progress(jid, 0.25, "a quarter")
+    assert store.jobs.get(jid)["progress"] == pytest.approx(0.25, abs=1e-12)
+    assert store.jobs.start(jid, max_deliveries=2) == (True, 2)  # a redelivery
+    ok, n = store.jobs.start(jid, max_deliveries=2)  # third delivery: over the cap -> failed with reason
     assert not ok and n == 3
-    job = store.get_job(jid)
+    job = store.jobs.get(jid)
     assert job["status"] == "failed" and "3 times" in job["error"] and job["finished_at"]
-    assert not store.finish_job(jid, "succeeded")  # final states are final
-    assert not store.set_progress(jid, 0.9)
-    assert store.find_active_job("k1") is None
+    assert type(job["status"]) is str  # the API and dashboard see the plain text
+    assert not store.jobs.finish(jid, JobStatus.SUCCEEDED)  # final states are final
+    assert not store.jobs.progress(jid, 0.9)
+    assert store.jobs.find_active("k1") is None
+    assert [j["id"] for j in store.jobs.recent(status=JobStatus.FAILED)] == [jid]
 
-    parent = store.create_job("basis", {})
-    child = store.create_job("basis-chunk", {}, parent_id=parent)
-    store.start_job(child, 3)
-    assert store.cancel_job(parent)
-    assert store.get_job(child)["status"] == "cancelled"
-    assert not store.set_progress(child, 0.5)  # a worker sees the cancellation at its next progress step
-    assert not store.cancel_job(parent)
+    parent = store.jobs.create("basis", {}, stage=None)
+    child = store.jobs.create("basis-chunk", {}, parent_id=parent)
+    assert store.jobs.claim_stage(parent, None, "fanout") and not store.jobs.claim_stage(parent, None, "fanout")
+    assert store.jobs.stage(parent) == "fanout" and store.jobs.stage(child) is None
+    store.jobs.start(child, 3)
+    assert store.jobs.cancel(parent)
+    assert store.jobs.get(child)["status"] == "cancelled"
+    assert not store.jobs.progress(child, 0.5)  # a worker sees the cancellation at its next progress step
+    assert not store.jobs.cancel(parent)
     with pytest.raises(ValueError, match="status"):
-        store.finish_job(parent, "running")
+        store.jobs.finish(parent, "running")
+
+    art = store.jobs.create("basis-chunk", {})
+    store.artifacts.save(art, "snapshots", np.eye(2))
+    store.artifacts.save(art, "snapshots", np.eye(3))  # replaces
+    assert store.artifacts.load(art, "snapshots").shape == (3, 3)
+    with pytest.raises(KeyError):
+        store.artifacts.load(art, "other")
 
 
 def test_worker_lru_cache_is_bounded():

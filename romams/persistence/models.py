@@ -2,7 +2,8 @@
 
 Arrays live in compressed NPZ blobs (``blob`` columns, written by :mod:`romams.serialize`) with their
 shapes and dtypes in the JSON ``meta`` column; nothing is pickled. Alembic (``migrations/``) owns the
-schema; ``Base.metadata.create_all`` is used only by tests.
+schema; ``Base.metadata.create_all`` is used only by tests. Only the repositories of
+:mod:`romams.persistence` use these classes.
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
+from romams.persistence.status import JobStatus
+
 NAMING = {
     "ix": "ix_%(column_0_label)s",
     "uq": "uq_%(table_name)s_%(column_0_name)s",
@@ -32,11 +35,6 @@ NAMING = {
     "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s",
     "pk": "pk_%(table_name)s",
 }
-
-JOB_STATUSES = ("queued", "running", "succeeded", "failed", "cancelled")
-ACTIVE_STATUSES = ("queued", "running")
-FINAL_STATUSES = ("succeeded", "failed", "cancelled")
-
 
 def utcnow() -> dt.datetime:
     """Current time, timezone-aware UTC."""
@@ -107,7 +105,7 @@ class Job(Base):
 
     id: Mapped[str] = mapped_column(String(64), primary_key=True)
     kind: Mapped[str] = mapped_column(String(40))
-    status: Mapped[str] = mapped_column(String(20), default="queued")
+    status: Mapped[str] = mapped_column(String(20), default=JobStatus.QUEUED.value)
     progress: Mapped[float] = mapped_column(Float, default=0.0)
     message: Mapped[str] = mapped_column(Text, default="")
     params: Mapped[dict[str, Any]] = mapped_column(JSON)

@@ -1,0 +1,63 @@
+"""Trained aerodynamic ROMs, one per identity (wing, basis, Mach, solver and identification settings)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from sqlalchemy import select
+
+from romams import serialize
+from romams.persistence.codec import iso, rom_key, small_summary
+from romams.persistence.models import RomRow
+from romams.persistence.repository import Repository
+
+
+class RomRepository(Repository):
+    """Save (replacing the same identity), find, load and list ROMs."""
+
+    def save(self, wing_id: int, basis_id: int, rom: Any, params: Mapping[str, Any], job_id: str | None = None) -> int:
+        """Store a TrainedRom (replacing one with the same identity); returns its id."""
+        mach = float(getattr(rom, "mach", params.get("mach", math.nan)))
+        if not math.isfinite(mach):
+            raise ValueError("mach: the ROM must carry a finite Mach number")
+        key = rom_key(wing_id, basis_id, mach, params)
+        meta, blob = serialize.dumps(rom)
+        old = self._session.scalar(select(RomRow).where(RomRow.key == key))
+        if old is not None:
+            self._session.delete(old)
+            self._session.flush()
+        row = RomRow(wing_id=int(wing_id), basis_id=int(basis_id), mach=mach, solver=str(params.get("solver", "")),
+                     key=key, params=serialize.to_jsonable(dict(params)), summary=small_summary(rom), meta=meta,
+                     blob=blob, job_id=job_id)
+        self._session.add(row)
+        self._session.flush()
+        return int(row.id)
+
+    def load(self, rom_id: int) -> Any:
+        """The TrainedRom stored under ``rom_id`` (KeyError if absent)."""
+        row = self._session.get(RomRow, int(rom_id))
+        if row is None:
+            raise KeyError(f"rom {rom_id} not found")
+        return serialize.loads(row.meta, row.blob)
+
+    def find_id(self, wing_id: int, basis_id: int, mach: float, params: Mapping[str, Any]) -> int | None:
+        """Id of the ROM trained with exactly these settings, or None."""
+        rid = self._session.scalar(select(RomRow.id).where(RomRow.key == rom_key(wing_id, basis_id, mach, params)))
+        return None if rid is None else int(rid)
+
+    def find(self, wing_id: int, basis_id: int, mach: float, params: Mapping[str, Any]) -> tuple[int, Any] | None:
+        """(id, TrainedRom) trained with exactly these settings, or None."""
+        rid = self.find_id(wing_id, basis_id, mach, params)
+        return None if rid is None else (rid, self.load(rid))
+
+    def of_wing(self, wing_id: int, basis_id: int | None = None) -> list[dict[str, Any]]:
+        """ROMs of a wing (optionally one basis), by Mach: id, basis_id, mach, solver, params, summary."""
+        q = select(RomRow).where(RomRow.wing_id == int(wing_id))
+        if basis_id is not None:
+            q = q.where(RomRow.basis_id == int(basis_id))
+        rows = self._session.scalars(q.order_by(RomRow.mach, RomRow.id.desc()))
+        return [{"id": r.id, "wing_id": r.wing_id, "basis_id": r.basis_id, "mach": r.mach, "solver": r.solver,
+                 "params": r.params, "summary": r.summary, "job_id": r.job_id, "created_at": iso(r.created_at)}
+                for r in rows]
