@@ -7,13 +7,13 @@ from typing import Any
 
 import numpy as np
 
-from .crossing import first_unstable, make_bracket, refine_crossing
+from .crossing import make_bracket, refine_crossing
 from .inputs import check_flutter_inputs, check_search_options
 from .model import make_model
 from .point import frequency_separation, modal_shares, single_mode_unstable
 from .result import FlutterResult, no_flutter_fields
 from .sweeps import DEFAULT_ALTITUDE_REF_M, Sweep, eas, make_sweep, resolve_reference
-from .tracking import Branches, Tracker
+from .tracking import Branches, Path, Tracker
 
 
 def flutter_analysis(
@@ -55,29 +55,38 @@ def flutter_analysis(
     rho_ref, a_ref, h_ref = resolve_reference(altitude_ref_m, rho_ref, a_ref)
     sw = make_sweep(sweep, mach, om, c_ref, rho_ref, a_ref, v_max, q_max, altitude_range_m)
     tracker = Tracker(model, sw, track_weight)
-    grid = sw.grid(int(n_points))
-    states = tracker.track(grid)
-    lam_path = np.array([st.lam for st in states])
-    g_path = 2.0 * lam_path.real / np.abs(lam_path)
+    path = tracker.track(sw.grid(int(n_points)))
     head: dict[str, Any] = dict(mach=mach, sweep=sweep, coupling=coupling, rho_ref=rho_ref, a_ref=a_ref,
-                                c_ref=c_ref, dt_star=model.dt_star, altitude_ref_m=h_ref,
-                                **_vg_data(sw, grid, lam_path, g_path), modal_share=np.zeros(om.size))
-    i_cross, first = first_unstable(g_path)
-    if i_cross >= grid.size:
-        return FlutterResult(**no_flutter_fields(), message=f"no flutter up to {sw.range_text()}", **head)
-    br = make_bracket(tracker, grid, states, i_cross, first)
+                                c_ref=c_ref, dt_star=model.dt_star, altitude_ref_m=h_ref, **_vg_data(sw, path),
+                                modal_share=np.zeros(om.size), lag_root_flagged=path.lag)
+    if path.first_unstable is None:
+        msg = f"no flutter up to {sw.range_text()}{_lag_note(path)}"
+        return FlutterResult(**no_flutter_fields(), message=msg, **head)
+    br = make_bracket(tracker, path)
     p_f, branch, st_f = refine_crossing(tracker, br, float(rtol))
-    omega_path = np.vstack([lam_path.imag[:i_cross], st_f.lam.imag[None, :]])
+    omega_path = np.array([st.lam.imag for st in path.states[1:path.first_unstable]] + [st_f.lam.imag])
+    # unstable from the start: growth near q = 0 is too small to see; check at least 1/12 of the natural range
+    p_chk_min = max(sw.p_start + sw.scale_at(sw.p_start) / 12.0, p_f) if path.first_unstable == 1 else p_f
     point = _flutter_point(tracker, p_f, branch, st_f, omega_path, float(sdoff_share), float(sdoff_q_factor),
-                           max(float(grid[0]), p_f) if i_cross == 0 else p_f)
+                           p_chk_min)
     if p_f == br.lo_p:
         point["message"] = "structural branch already unstable at the start of the sweep; " + point["message"]
+    point["message"] += _lag_note(path)
     head["modal_share"] = point.pop("modal_share")
     return FlutterResult(**point, **head)
 
 
-def _vg_data(sw: Sweep, grid: np.ndarray, lam_path: np.ndarray, g_path: np.ndarray) -> dict[str, np.ndarray]:
-    """V-g / V-omega data of the reported grid points."""
+def _lag_note(path: Path) -> str:
+    """Message suffix when a branch had to be continued on an aerodynamic lag root."""
+    return ("; WARNING: a structural branch was continued on an aerodynamic lag root (no structural candidate "
+            "left) -- check the ROM" if path.lag else "")
+
+
+def _vg_data(sw: Sweep, path: Path) -> dict[str, np.ndarray]:
+    """V-g / V-omega data of the coarse grid points."""
+    grid = np.array([path.p[i] for i in path.coarse])
+    lam_path = np.array([path.states[i].lam for i in path.coarse])
+    g_path = 2.0 * lam_path.real / np.abs(lam_path)
     v_g, rho_g = sw.cond(grid)
     q_g = 0.5 * rho_g * v_g**2
     keep = sw.keep(grid)

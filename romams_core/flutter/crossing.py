@@ -17,9 +17,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .eigen import EigData, NoRoot, newton_root
-from .tracking import Branches, Tracker
-
-G_UNSTABLE = 1e-9  # g above which a branch counts as unstable
+from .tracking import G_UNSTABLE, Branches, Path, Tracker
 
 
 @dataclass
@@ -40,26 +38,24 @@ class Bracket:
         return complex(a + (p - self.lo_p) / (self.hi_p - self.lo_p) * (b - a))
 
 
-def first_unstable(g_path: np.ndarray) -> tuple[int, np.ndarray]:
-    """(index of the first grid point where some branch is unstable (n if none), per-branch first index)."""
-    unstable = g_path > G_UNSTABLE
-    first = np.where(unstable.any(axis=0), unstable.argmax(axis=0), g_path.shape[0])
-    return int(first.min()), first
+def make_bracket(tracker: Tracker, path: Path) -> Bracket:
+    """Bracket of the first crossing: the path's first unstable point and the point before it.
 
-
-def make_bracket(tracker: Tracker, grid: np.ndarray, states: list[Branches], i_cross: int,
-                 first: np.ndarray) -> Bracket:
-    """Bracket of the first crossing; one before the first grid point starts just after q = 0 (a branch of
-    zero structural damping has Re(s) = 0 exactly at q = 0), at a sweep-independent offset."""
-    if i_cross == 0:
+    The candidates are the branches unstable at that point (none was unstable before). A crossing before the
+    first point after q = 0 is bracketed from just after q = 0 (a branch of zero structural damping has
+    Re(s) = 0 exactly at q = 0), at an offset fixed by the sweep's natural range (not by the grid).
+    """
+    i = path.first_unstable
+    assert i is not None and i >= 1
+    hi_p, hi_state = path.p[i], path.states[i]
+    cands = [int(j) for j in np.nonzero(path.g(i) > G_UNSTABLE)[0]]
+    if i == 1:
         sw = tracker.sweep
-        lo_p = sw.p_start + 1e-6 * min(sw.first_fixed, float(grid[0]) - sw.p_start)
-        e = tracker.eig(np.array([lo_p]))
-        lo_state = tracker.step(tracker.start(), sw.p_start, lo_p, e)
+        lo_p = sw.p_start + min(1e-6 * sw.scale_at(sw.p_start), 1e-3 * (hi_p - sw.p_start))
+        lo_state = tracker.step(tracker.start(), sw.p_start, lo_p, tracker.eig(np.array([lo_p])))
     else:
-        lo_p, lo_state = float(grid[i_cross - 1]), states[i_cross - 1]
-    cands = [int(j) for j in np.nonzero(first == i_cross)[0]]
-    return Bracket(lo_p, lo_state, float(grid[i_cross]), states[i_cross], cands)
+        lo_p, lo_state = path.p[i - 1], path.states[i - 1]
+    return Bracket(lo_p, lo_state, hi_p, hi_state, cands)
 
 
 def _re_eig(tracker: Tracker, br: Bracket) -> Callable[[float, int], float]:

@@ -27,6 +27,8 @@ from romams_core.validation import finite_positive
 
 DEFAULT_ALTITUDE_REF_M = 10_000.0
 K_MIN_DEFAULT_VMAX = 0.5  # Mach 0 constant-density default: v_max where the highest mode's k falls to this
+REFINE_MIN = 2.0**-12  # smallest refinement step of the tracker, relative to the sweep's natural range
+DEFAULT_ALTITUDE_RANGE_M = (0.0, 20_000.0)
 
 
 @functools.lru_cache(maxsize=64)
@@ -71,6 +73,7 @@ class Sweep:
     p_start: float
     p_end: float
     rho_ref: float
+    scale: float  # the sweep's natural range (its default p_end - p_start), independent of the user's range
 
     def cond(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(V [m/s], rho [kg/m^3]) at parameters p (array)."""
@@ -80,11 +83,13 @@ class Sweep:
         """The coarse grid of n points (p_start excluded, p_end included)."""
         return np.linspace(self.p_start + (self.p_end - self.p_start) / n, self.p_end, n)
 
-    @property
-    def first_fixed(self) -> float:
-        """A sweep-independent first step length: the bracket start of a crossing before the first point uses
-        p_start + 1e-6 of it, the refinement's minimum step a fraction of it."""
-        return self.p_end - self.p_start
+    def scale_at(self, p: float) -> float:
+        """The natural range of the sweep parameter around p (independent of n_points and of the user's range)."""
+        return self.scale
+
+    def min_step(self, p: float) -> float:
+        """Smallest step of the tracker's refinement at p: ``REFINE_MIN`` of the natural range."""
+        return REFINE_MIN * self.scale_at(p)
 
     def speed_axis(self, v: np.ndarray, q: np.ndarray) -> np.ndarray:
         """The V-g plot's speed axis (true speed; constant-speed overrides)."""
@@ -161,9 +166,8 @@ class Matched(Sweep):
     def grid(self, n: int) -> np.ndarray:
         return np.concatenate([np.linspace(-0.75, -0.25, 3), np.linspace(0.0, self.h_hi - self.h_lo, n)])
 
-    @property
-    def first_fixed(self) -> float:
-        return 0.25
+    def scale_at(self, p: float) -> float:
+        return 1.0 if p < 0 else self.scale  # density ramp: p in [-1, 0)
 
     def altitude(self, p: np.ndarray) -> np.ndarray:
         p = np.asarray(p, float)
@@ -188,12 +192,14 @@ def make_sweep(
 ) -> Sweep:
     """The sweep object of a search (ranges validated; InputError naming the field)."""
     if name == "constant-density":
-        v_end = finite_positive("v_max", default_v_max(omega, c_ref, mach, a_ref) if v_max is None else v_max)
-        return ConstantDensity(name, 0.0, v_end, rho_ref)
+        v_def = default_v_max(omega, c_ref, mach, a_ref)
+        v_end = finite_positive("v_max", v_def if v_max is None else v_max)
+        return ConstantDensity(name, 0.0, v_end, rho_ref, v_def)
     if name == "constant-speed":
         v0 = mach * a_ref
-        q_end = 4.0 * 0.5 * rho_ref * v0**2 if q_max is None else finite_positive("q_max", q_max)
-        return ConstantSpeed(name, 0.0, q_end, rho_ref, v0)
+        q_def = 4.0 * 0.5 * rho_ref * v0**2
+        q_end = q_def if q_max is None else finite_positive("q_max", q_max)
+        return ConstantSpeed(name, 0.0, q_end, rho_ref, q_def, v0)
     try:
         h_lo, h_hi = (float(x) for x in altitude_range_m)
     except (TypeError, ValueError):
@@ -205,7 +211,8 @@ def make_sweep(
         isa_table(h_lo)  # range check
     except InputError as exc:
         raise InputError("altitude_range_m", exc.reason) from None
-    return Matched(name, -1.0, h_hi - h_lo, rho_ref, mach, h_lo, h_hi, mach * float(a_top), float(rho_top))
+    h_def = DEFAULT_ALTITUDE_RANGE_M[1] - DEFAULT_ALTITUDE_RANGE_M[0]
+    return Matched(name, -1.0, h_hi - h_lo, rho_ref, h_def, mach, h_lo, h_hi, mach * float(a_top), float(rho_top))
 
 
 def eas(q: np.ndarray) -> np.ndarray:

@@ -1,10 +1,28 @@
-"""Continuation of the k structural branches along the sweep parameter p."""
+"""Continuation of the k structural branches along the sweep parameter p, with adaptive refinement.
+
+Each step assigns the eigenvalues of the next sweep point to the branches (Hungarian assignment, ``assign``).
+A step is refined -- split into four sub-steps whose three interior points are solved in one batched
+eigen-solve, recursively -- when the assignment is not trustworthy:
+
+- ambiguity: an assigned MAC below ``MAC_MIN``, a relative eigenvalue jump above ``JUMP_MAX``, a near-tie
+  (a runner-up candidate nearly as cheap as the assigned one), or a branch continued on a lag root;
+- before the first unstable point only (the part of the sweep that decides the flutter point), also a step
+  that smooth continuation does not predict -- an eigenvalue farther than ``SMOOTH_TOL`` (relative) from the
+  linear extrapolation of the branch's last two points -- and a possible hump: the parabola of a branch's
+  damping g through its last three points rising above zero between two stable points.
+
+Before the first unstable point the refinement goes down to a minimum step fixed by the sweep (not by the
+number of coarse points), so the flutter point does not depend on the coarse grid; after it, ambiguous steps
+are split at most twice (they only shape the post-flutter V-g curves). A candidate whose structural content
+(``eigen.py``) is below ``CONTENT_MIN`` is an aerodynamic lag root: it costs ``LAG_PENALTY`` more, so it is
+taken only when no structural candidate is left, and then the result is flagged.
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -13,6 +31,15 @@ from .eigen import EigData, eig_batch
 from .model import Model
 from .sweeps import Sweep
 
+MAC_MIN = 0.8  # assigned MAC below this: ambiguous step
+JUMP_MAX = 1.0  # assigned |s1 - s0| / max(|s0|, omega_j) above this: ambiguous step
+SMOOTH_TOL = 0.1  # |s1 - linear extrapolation| / max(|s0|, omega_j) above this: step not smooth (pre-crossing)
+CONTENT_MIN = 0.25  # structural content below this: an aerodynamic lag root, not a structural branch
+LAG_PENALTY = 10.0  # extra assignment cost of a lag-root candidate
+POST_CROSSING_DEPTH = 2  # split levels of an ambiguous step after the first unstable point
+MAX_REFINE_POINTS = 400  # refinement budget (eigen-solved points) of one search
+G_UNSTABLE = 1e-9  # g above which a branch counts as unstable
+
 
 @dataclass
 class Branches:
@@ -20,6 +47,21 @@ class Branches:
 
     lam: np.ndarray  # [k] complex s
     vec: np.ndarray  # [2k, k] normalized structural vectors [xi; xi'/omega] (columns)
+    lag: bool = False  # some branch was continued on a lag-root candidate (no structural one left)
+
+
+@dataclass
+class StepCheck:
+    """Diagnostics of one assignment step."""
+
+    mac_min: float  # smallest assigned MAC
+    jump: float  # largest relative eigenvalue change
+    gap: float  # smallest margin of a runner-up over 1.5 x the assigned cost (< 0: near-tie)
+    lag: bool  # a lag-root candidate was assigned
+
+    @property
+    def ambiguous(self) -> bool:
+        return self.mac_min < MAC_MIN or self.jump > JUMP_MAX or self.gap < 0.0 or self.lag
 
 
 def initial_branches(omega: np.ndarray, zeta: np.ndarray) -> Branches:
@@ -30,35 +72,14 @@ def initial_branches(omega: np.ndarray, zeta: np.ndarray) -> Branches:
     return Branches(lam, a / np.linalg.norm(a, axis=0))
 
 
-def assign(
-    prev: Branches, lam_c: np.ndarray, a_c: np.ndarray, period: float, weight: float, omega: np.ndarray
-) -> tuple[Branches, float, float, float]:
-    """One tracking step: Hungarian assignment of candidates (s, normalized structural vectors) to branches.
+def _tie_gap(cost: np.ndarray, chosen: list[float], prev: Branches, omega: np.ndarray) -> float:
+    """Smallest margin of a runner-up over 1.5 x the assigned cost (+0.002) of the lightly damped branches.
 
-    Eigenvalue distances are relative to max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a
-    finite scale). Returns the new branch state, the smallest assigned MAC, the largest relative jump and
-    the smallest margin of the next-best candidate over 1.5 x the assigned cost (< 0: near-tie).
+    A smaller step, where the true continuation's cost tends to 0, separates a near-tie (e.g. an aero pole
+    beside a mode). Heavily damped pairs splitting into two real roots are genuine, harmless ties and are not
+    checked. Runner-up of a row: its second-smallest cost when the assigned one is the smallest, else its
+    smallest.
     """
-    k = prev.lam.size
-    if math.isfinite(period):
-        m = np.round((prev.lam.imag[:, None] - lam_c.imag[None, :]) / period)
-        s = lam_c[None, :] + (1j * period) * m
-    else:
-        s = lam_c[None, :]
-    mac = np.abs(prev.vec.conj().T @ a_c) ** 2
-    dist = np.abs(s - prev.lam[:, None]) / np.maximum(np.abs(prev.lam), omega)[:, None]
-    cost = (1.0 - mac) + weight * dist
-    if not np.isfinite(cost).all():
-        cost[~np.isfinite(cost)] = 1e6
-    _, cols = linear_sum_assignment(cost)  # row indices come back sorted (k <= number of candidates)
-    idx = np.arange(k)
-    chosen = cost[idx, cols].tolist()
-    new_lam = s[idx, cols] if s.shape[0] == k else lam_c[cols]
-    # near-tie: the runner-up costs less than 1.5 x the assigned candidate (+0.002); a smaller step, where
-    # the true continuation's cost tends to 0, separates them (e.g. an aero pole beside a mode). Only
-    # lightly damped oscillatory branches are checked: a heavily damped pair splitting into two real
-    # roots is a genuine, harmless tie. (Runner-up of a row: its second-smallest cost when the assigned
-    # one is the smallest, else its smallest.)
     gap = math.inf
     if cost.shape[1] > 1:
         two = np.partition(cost, 1, axis=1)[:, :2].tolist()
@@ -66,11 +87,89 @@ def assign(
             if lj.imag > 0.05 * wj and -lj.real < 0.25 * abs(lj):
                 runner = two[j][1] if chosen[j] == two[j][0] else two[j][0]
                 gap = min(gap, runner - 1.5 * chosen[j] - 0.002)
-    return Branches(new_lam, a_c[:, cols]), float(mac[idx, cols].min()), float(dist[idx, cols].max()), gap
+    return gap
+
+
+def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tuple[Branches, StepCheck]:
+    """One tracking step: Hungarian assignment of the candidates of one sweep point ``e`` to the branches.
+
+    Cost: (1 - MAC of the normalized structural vectors) + weight x eigenvalue distance relative to
+    max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a finite scale) + LAG_PENALTY for a candidate
+    with structural content below CONTENT_MIN. ZOH eigenvalues are unwrapped by the alias period.
+    """
+    assert e.xs is not None
+    lam_c, a_c, period = e.lam[0], e.xs[0], float(e.period[0])
+    k = prev.lam.size
+    if math.isfinite(period):
+        s = lam_c[None, :] + (1j * period) * np.round((prev.lam.imag[:, None] - lam_c.imag[None, :]) / period)
+    else:
+        s = lam_c[None, :]
+    mac = np.abs(prev.vec.conj().T @ a_c) ** 2
+    dist = np.abs(s - prev.lam[:, None]) / np.maximum(np.abs(prev.lam), omega)[:, None]
+    cost = (1.0 - mac) + weight * dist
+    lag_c = np.zeros(lam_c.size, bool) if e.content is None else e.content[0] < CONTENT_MIN
+    cost[:, lag_c] += LAG_PENALTY
+    if not np.isfinite(cost).all():
+        cost[~np.isfinite(cost)] = 1e6
+    _, cols = linear_sum_assignment(cost)  # row indices come back sorted (k <= number of candidates)
+    idx = np.arange(k)
+    chosen = cost[idx, cols].tolist()
+    new_lam = s[idx, cols] if s.shape[0] == k else lam_c[cols]
+    lag = bool(lag_c[cols].any())
+    check = StepCheck(float(mac[idx, cols].min()), float(dist[idx, cols].max()), _tie_gap(cost, chosen, prev, omega),
+                      lag)
+    return Branches(new_lam, a_c[:, cols], prev.lag or lag), check
+
+
+def _hump(p: tuple[float, float, float], g: np.ndarray) -> bool:
+    """True when the parabola through (p_i, g_i) [3, k] of some branch peaks above zero inside (p1, p2)
+    while g is stable at both ends (a crossing that may return to stability between the two points)."""
+    p0, p1, p2 = p
+    if not (p0 < p1 < p2) or np.any(g[1:] > G_UNSTABLE):
+        return False
+    d01 = (g[1] - g[0]) / (p1 - p0)
+    d12 = (g[2] - g[1]) / (p2 - p1)
+    c2 = (d12 - d01) / (p2 - p0)  # leading coefficient
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pv = 0.5 * (p1 + p2) - 0.5 * d12 / c2  # vertex: derivative d12 + c2 (2 p - p1 - p2) = 0
+        gv = g[1] + (pv - p1) * (d12 + c2 * (pv - p2))
+    return bool(np.any((c2 < 0) & (pv > p1) & (pv < p2) & (gv > G_UNSTABLE)))
+
+
+def _history(p: list[float], p1: float) -> int | None:
+    """Index of the point that, with the last one, extrapolates to p1: the latest point at least half the step
+    (p1 - p_last) before the last one; None when there is none (no extrapolation beyond twice the history,
+    e.g. right after the matched sweep's density ramp, where the parametrization has a kink)."""
+    p0 = p[-1]
+    h = 0.5 * (p1 - p0)
+    for i in range(len(p) - 2, -1, -1):
+        if p0 - p[i] >= h:
+            return i
+    return None
+
+
+@dataclass
+class Path:
+    """The tracked path: every point (coarse and refined) in order, and which of them are coarse points."""
+
+    p: list[float]
+    states: list[Branches]
+    coarse: list[int] = field(default_factory=list)
+    first_unstable: int | None = None  # index into p of the first point with an unstable branch
+    n_refined: int = 0  # eigen-solved refinement points
+
+    @property
+    def lag(self) -> bool:
+        """Some branch was continued on a lag-root candidate somewhere on the path."""
+        return any(st.lag for st in self.states)
+
+    def g(self, i: int) -> np.ndarray:
+        lam = self.states[i].lam
+        return 2.0 * lam.real / np.abs(lam)
 
 
 class Tracker:
-    """Continuation of the structural branches along a sweep."""
+    """Continuation of the structural branches along a sweep (module docstring)."""
 
     def __init__(self, model: Model, sweep: Sweep, weight: float):
         self.m = model
@@ -87,30 +186,63 @@ class Tracker:
         return eig_batch(self.m, v, 0.5 * rho * v**2, vectors)
 
     def step(self, prev: Branches, p0: float, p1: float, e1: EigData, depth: int = 0) -> Branches:
-        """Track from p0 (state prev) to p1 (eigen-data e1 of that single point); an ambiguous step is split
-        in four sub-steps (one batched eigen-solve of the three interior points), at most twice (1/16)."""
-        assert e1.xs is not None
-        new, mac_min, jump, gap = assign(prev, e1.lam[0], e1.xs[0], float(e1.period[0]), self.weight, self.m.omega)
-        if (mac_min < 0.8 or jump > 1.0 or gap < 0.0) and depth < 2:
-            ps = p0 + (p1 - p0) * np.array([0.25, 0.5, 0.75])
-            em = self.eig(ps)
-            state, pa = prev, p0
-            for i in range(3):
-                state = self.step(state, pa, ps[i], em.point(i), depth + 1)
-                pa = ps[i]
-            return self.step(state, pa, p1, e1, depth + 1)
-        return new
+        """Track from p0 (state prev) to p1 (eigen-data e1 of that point); an ambiguous step is split in four
+        sub-steps (one batched eigen-solve of the three interior points), at most ``POST_CROSSING_DEPTH`` times."""
+        path = Path([p0], [prev], first_unstable=0)  # careful refinement off
+        self._advance(path, p1, e1, depth)
+        return path.states[-1]
+
+    def track(self, grid: np.ndarray) -> Path:
+        """The path over the coarse grid from the in-vacuo poles at p_start, refined where needed."""
+        eg = self.eig(grid)
+        path = Path([self.sweep.p_start], [self.start()])
+        for i in range(grid.size):
+            self._advance(path, float(grid[i]), eg.point(i), 0)
+            path.coarse.append(len(path.p) - 1)
+        return path
 
     def iter_track(self, grid: np.ndarray) -> Iterator[Branches]:
-        """Branch states at the grid points in turn, from the in-vacuo poles at p_start."""
+        """Branch states at the grid points in turn (no pre-crossing refinement: used by the SDOFF check)."""
         eg = self.eig(grid)
-        state = self.start()
-        p_prev = self.sweep.p_start
+        state, p_prev = self.start(), self.sweep.p_start
         for i in range(grid.size):
             state = self.step(state, p_prev, float(grid[i]), eg.point(i))
             yield state
             p_prev = float(grid[i])
 
-    def track(self, grid: np.ndarray) -> list[Branches]:
-        """Branch states at every grid point."""
-        return list(self.iter_track(grid))
+    def _split(self, path: Path, p1: float, careful: bool, check: StepCheck, new: Branches, depth: int) -> bool:
+        """Whether the step from the path's last point to p1 (assigned state ``new``) must be refined."""
+        p0 = path.p[-1]
+        if not careful:
+            return check.ambiguous and depth < POST_CROSSING_DEPTH
+        if p1 - p0 <= self.sweep.min_step(p0) or path.n_refined >= MAX_REFINE_POINTS:
+            return False
+        if check.ambiguous:
+            return True
+        i = _history(path.p, p1)
+        if i is None:
+            return False
+        pm, sm, s0 = path.p[i], path.states[i].lam, path.states[-1].lam
+        pred = s0 + (s0 - sm) * ((p1 - p0) / (p0 - pm))
+        if np.max(np.abs(new.lam - pred) / np.maximum(np.abs(s0), self.m.omega)) > SMOOTH_TOL:
+            return True
+        g_new = 2.0 * new.lam.real / np.abs(new.lam)
+        return _hump((pm, p0, p1), np.array([path.g(i), path.g(-1), g_new]))
+
+    def _advance(self, path: Path, p1: float, e1: EigData, depth: int) -> None:
+        """Append the point p1 (eigen-data e1) to the path, refining the step when needed."""
+        new, check = assign(path.states[-1], e1, self.weight, self.m.omega)
+        careful = path.first_unstable is None
+        if self._split(path, p1, careful, check, new, depth):
+            p0 = path.p[-1]
+            ps = p0 + (p1 - p0) * np.array([0.25, 0.5, 0.75])
+            em = self.eig(ps)
+            path.n_refined += 3
+            for i in range(3):
+                self._advance(path, float(ps[i]), em.point(i), depth + 1)
+            self._advance(path, p1, e1, depth + 1)
+            return
+        path.p.append(p1)
+        path.states.append(new)
+        if careful and np.any(path.g(-1) > G_UNSTABLE):
+            path.first_unstable = len(path.p) - 1
