@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from romams_core.errors import InputError
+from romams_core.validation import check_int
+
 __all__ = ["ArxModel", "fit_arx", "arx_simulate", "nrmse", "regressors"]
 
 
@@ -31,14 +34,6 @@ class ArxModel:
     def nb(self) -> int:
         """Input delay order (taps 0..nb-1)."""
         return int(self.b.shape[0])
-
-
-def _check_orders(na: int, nb: int) -> None:
-    """Validate ARX orders."""
-    if not (isinstance(na, int | np.integer) and 0 <= na <= 64):
-        raise ValueError(f"na: must be an integer in [0, 64], got {na!r}")
-    if not (isinstance(nb, int | np.integer) and 1 <= nb <= 64):
-        raise ValueError(f"nb: must be an integer in [1, 64], got {nb!r}")
 
 
 def regressors(u: np.ndarray, f: np.ndarray, na: int, nb: int) -> np.ndarray:
@@ -68,21 +63,23 @@ def fit_arx(
     ``ar_ridge`` adds ar_ridge * T on the autoregressive (A_i) coefficients only: a tiny value (1e-10) removes
     the spurious, nearly unstable poles that oversampled band-limited data leave in an unconstrained fit.
     """
-    _check_orders(na, nb)
+    check_int("na", na, 0, 64)
+    check_int("nb", nb, 1, 64)
     u = np.asarray(u, dtype=float)
     f = np.asarray(f, dtype=float)
     if u.ndim != 2 or f.ndim != 2 or u.shape[0] != f.shape[0]:
-        raise ValueError(f"u, f: expected [T, m_in] and [T, m_out] with equal T, got {u.shape} and {f.shape}")
+        raise InputError("u", f"u [T, m_in] and f [T, m_out] need equal T, got {u.shape} and {f.shape}")
     if not (np.all(np.isfinite(u)) and np.all(np.isfinite(f))):
-        raise ValueError("u, f: must be finite")
+        raise InputError("u", "u and f must be finite")
     if not (math.isfinite(ridge) and ridge >= 0):
-        raise ValueError(f"ridge: must be a finite number >= 0, got {ridge!r}")
+        raise InputError("ridge", f"must be a finite number >= 0, got {ridge!r}")
     if not (math.isfinite(ar_ridge) and ar_ridge >= 0):
-        raise ValueError(f"ar_ridge: must be a finite number >= 0, got {ar_ridge!r}")
+        raise InputError("ar_ridge", f"must be a finite number >= 0, got {ar_ridge!r}")
     m_out, m_in = f.shape[1], u.shape[1]
     n_par = na * m_out + nb * m_in
     if u.shape[0] < 2 * n_par:
-        raise ValueError(f"u: {u.shape[0]} samples are too few for {n_par} parameters per output (need >= {2 * n_par})")
+        raise InputError("u", f"{u.shape[0]} samples are too few for {n_par} parameters per output "
+                              f"(need >= {2 * n_par})")
     phi = regressors(u, f, na, nb)
     scale = np.sqrt(np.mean(phi**2, axis=0))
     scale[scale == 0] = 1.0

@@ -2,7 +2,7 @@
 
 All inputs and outputs are SI: geometric altitude h in m, density in kg/m^3, speed of sound in m/s,
 temperature in K, pressure in Pa, dynamic pressure in Pa. The valid altitude range is that of
-``ambiance`` (about -5 km to 81 km); outside it the functions raise ValueError unless ``clamp`` is set.
+``ambiance`` (about -5 km to 81 km); outside it the functions raise InputError (a ValueError) unless ``clamp`` is set.
 
 The flight dynamic pressure at Mach M is q = 0.5 rho (M a)^2 = 0.5 gamma p M^2 (gamma = 1.4, since
 a^2 = gamma p / rho), so the altitude for a given (q, M) follows from the static pressure alone.
@@ -17,11 +17,13 @@ the size of the jump in ambiance's own tabulated base pressures there. Tests che
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from ambiance import Atmosphere
+
+from romams_core.errors import InputError
+from romams_core.validation import check_number
 
 GAMMA_AIR = 1.4
 H_MIN_M = -5004.0  # ambiance's lower limit (m); hard-coded so as not to depend on its internals
@@ -46,11 +48,11 @@ def _check_altitude(h: np.ndarray, clamp: bool, name: str = "altitude_m") -> np.
     """Validate/clamp altitudes (m) against the table range of ambiance."""
     h = np.asarray(h, dtype=float)
     if not np.all(np.isfinite(h)):
-        raise ValueError(f"{name}: must be finite, got {h!r}")
+        raise InputError(name, f"must be finite, got {h!r}")
     if clamp:
         return np.clip(h, H_MIN_M, H_MAX_M)
     if np.any(h < H_MIN_M) or np.any(h > H_MAX_M):
-        raise ValueError(f"{name}: outside the standard atmosphere range [{H_MIN_M:g}, {H_MAX_M:g}] m, got {h!r}")
+        raise InputError(name, f"outside the standard atmosphere range [{H_MIN_M:g}, {H_MAX_M:g}] m, got {h!r}")
     return h
 
 
@@ -79,16 +81,10 @@ def speed_of_sound(altitude_m: float, clamp: bool = False) -> float:
 
 def flight_dynamic_pressure(mach: float, altitude_m: float | np.ndarray, clamp: bool = False) -> np.ndarray | float:
     """Dynamic pressure q = 0.5 rho (M a)^2 = 0.5 gamma p M^2 (Pa) at Mach ``mach`` and altitude(s) (m), tabulated."""
-    _check_mach(mach)
+    check_number("mach", mach, 0.0)
     _, _, p = isa_table(altitude_m, clamp)
     q = 0.5 * GAMMA_AIR * p * mach**2
     return float(q) if np.ndim(q) == 0 else q
-
-
-def _check_mach(mach: float) -> None:
-    """Raise ValueError unless 0 < mach is finite."""
-    if not (isinstance(mach, int | float | np.floating) and math.isfinite(mach) and mach > 0):
-        raise ValueError(f"mach: must be a finite number > 0, got {mach!r}")
 
 
 def altitude_for_dynamic_pressure(q_pa: float, mach: float, clamp: bool = False) -> float:
@@ -98,15 +94,14 @@ def altitude_for_dynamic_pressure(q_pa: float, mach: float, clamp: bool = False)
     lowest table altitude returns that altitude (-5004 m) and a q below the value at the top returns
     the top (81020 m); without it such a q raises ValueError.
     """
-    _check_mach(mach)
-    if not (isinstance(q_pa, int | float | np.floating) and math.isfinite(q_pa) and q_pa > 0):
-        raise ValueError(f"q_pa: must be a finite number > 0, got {q_pa!r}")
+    check_number("mach", mach, 0.0)
+    check_number("q_pa", q_pa, 0.0)
     p = float(q_pa) / (0.5 * GAMMA_AIR * mach * mach)
     if p > _P_AT_H_MIN or p < _P_AT_H_MAX:
         if not clamp:
-            raise ValueError(
-                f"q_pa: {q_pa:g} Pa at Mach {mach:g} needs static pressure {p:g} Pa, outside the standard atmosphere "
-                f"range [{_P_AT_H_MAX:g}, {_P_AT_H_MIN:g}] Pa"
+            raise InputError(
+                "q_pa", f"{q_pa:g} Pa at Mach {mach:g} needs static pressure {p:g} Pa, outside the standard "
+                f"atmosphere range [{_P_AT_H_MAX:g}, {_P_AT_H_MIN:g}] Pa"
             )
         return H_MIN_M if p > _P_AT_H_MIN else H_MAX_M
     return float(altitude_for_pressure(p))

@@ -22,6 +22,9 @@ from typing import Any
 import numpy as np
 from scipy.stats import qmc
 
+from romams_core.errors import InputError
+from romams_core.validation import check_int, check_unit_interval
+
 ProgressFn = Callable[[float, str], None]
 MapFn = Callable[[Callable[[np.ndarray], np.ndarray], Iterable[np.ndarray]], Iterable[np.ndarray]]
 
@@ -32,17 +35,10 @@ def _as_2d(name: str, a: np.ndarray) -> np.ndarray:
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim != 2:
-        raise ValueError(f"{name}: expected a [N] or [N, k] array, got shape {arr.shape}")
+        raise InputError(name, f"expected a [N] or [N, k] array, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: contains NaN or infinite values")
+        raise InputError(name, "contains NaN or infinite values")
     return arr
-
-
-def _check_threshold(value: float, name: str = "mac_threshold") -> float:
-    """Validate a MAC threshold in (0, 1)."""
-    if not (isinstance(value, int | float | np.floating | np.integer) and 0.0 < float(value) < 1.0):
-        raise ValueError(f"{name}: must be a number in (0, 1), got {value!r}")
-    return float(value)
 
 
 def mac(a: np.ndarray, b: np.ndarray) -> np.ndarray | float:
@@ -54,7 +50,7 @@ def mac(a: np.ndarray, b: np.ndarray) -> np.ndarray | float:
     one_d = np.ndim(a) == 1 and np.ndim(b) == 1
     a2, b2 = _as_2d("a", a), _as_2d("b", b)
     if a2.shape != b2.shape:
-        raise ValueError(f"b: shape {b2.shape} does not match a's shape {a2.shape}")
+        raise InputError("b", f"shape {b2.shape} does not match a's shape {a2.shape}")
     ab = np.einsum("ij,ij->j", a2, b2)
     den = np.einsum("ij,ij->j", a2, a2) * np.einsum("ij,ij->j", b2, b2)
     out = np.divide(ab * ab, den, out=np.zeros_like(ab), where=den > 0.0)
@@ -65,7 +61,7 @@ def mac_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """MAC (dimensionless) of every column of a [N, ka] against every column of b [N, kb] -> [ka, kb]."""
     a2, b2 = _as_2d("a", a), _as_2d("b", b)
     if a2.shape[0] != b2.shape[0]:
-        raise ValueError(f"b: has {b2.shape[0]} rows, a has {a2.shape[0]}")
+        raise InputError("b", f"has {b2.shape[0]} rows, a has {a2.shape[0]}")
     ab = a2.T @ b2
     den = np.outer(np.einsum("ij,ij->j", a2, a2), np.einsum("ij,ij->j", b2, b2))
     return np.divide(ab * ab, den, out=np.zeros_like(ab), where=den > 0.0)
@@ -75,24 +71,17 @@ def _bounds(wing: Any) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper bounds [d] (each variable's own unit) of a wing's design variables."""
     dvs = tuple(getattr(wing, "design_variables", ()) or ())
     if not dvs:
-        raise ValueError("wing.design_variables: the wing has no design variables to sample")
+        raise InputError("wing.design_variables", "the wing has no design variables to sample")
     lower = np.array([float(v.lower) for v in dvs])
     upper = np.array([float(v.upper) for v in dvs])
     if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper)) and np.all(upper >= lower)):
-        raise ValueError("wing.design_variables: bounds must be finite with lower <= upper")
+        raise InputError("wing.design_variables", "bounds must be finite with lower <= upper")
     return lower, upper
-
-
-def _check_count(name: str, n: int, lo: int = 1, hi: int = 100_000) -> int:
-    """Validate an integer count in [lo, hi]."""
-    if isinstance(n, bool) or not isinstance(n, int | np.integer) or not lo <= int(n) <= hi:
-        raise ValueError(f"{name}: must be an integer in [{lo}, {hi}], got {n!r}")
-    return int(n)
 
 
 def sample_designs(wing: Any, n: int, seed: int = 0) -> np.ndarray:
     """Latin hypercube sample [n, d] of the wing's design space (each variable in its own unit)."""
-    n = _check_count("samples", n)
+    n = check_int("samples", n, 1, 100_000)
     lower, upper = _bounds(wing)
     unit = qmc.LatinHypercube(d=lower.size, rng=np.random.default_rng(seed)).random(n)
     return lower + unit * (upper - lower)
@@ -100,7 +89,7 @@ def sample_designs(wing: Any, n: int, seed: int = 0) -> np.ndarray:
 
 def random_designs(wing: Any, n: int, seed: int = 1) -> np.ndarray:
     """Independent uniform random designs [n, d] in the wing's bounds (for hold-out checks)."""
-    n = _check_count("holdout", n)
+    n = check_int("holdout", n, 1, 100_000)
     lower, upper = _bounds(wing)
     return lower + np.random.default_rng(seed).random((n, lower.size)) * (upper - lower)
 
@@ -113,7 +102,7 @@ def snapshot(wing: Any, design: np.ndarray | Sequence[float] | None, n_modes: in
     """
     from romams_core.structure.modal import modal_analysis  # written by the structure part
 
-    n_modes = _check_count("modes", n_modes, 1, 50)
+    n_modes = check_int("modes", n_modes, 1, 50)
     res = modal_analysis(wing, design=None if design is None else np.asarray(design, dtype=float), n_modes=n_modes)
     return np.asarray(res.shapes, dtype=float)
 
@@ -187,17 +176,17 @@ def build_basis(
     """
     p = _as_2d("snapshots", snapshots)
     n_nodes, n_snap = p.shape
-    thr = _check_threshold(mac_threshold)
-    max_basis = _check_count("max_basis", max_basis, 1, 1000)
+    thr = check_unit_interval("mac_threshold", mac_threshold)
+    max_basis = check_int("max_basis", max_basis, 1, 1000)
     if n_snap < 1 or n_nodes < 2:
-        raise ValueError(f"snapshots: need at least 2 nodes and 1 snapshot, got shape {p.shape}")
+        raise InputError("snapshots", f"need at least 2 nodes and 1 snapshot, got shape {p.shape}")
     norms = np.linalg.norm(p, axis=0)
     if np.any(norms <= 1e-300):
         bad = np.flatnonzero(norms <= 1e-300).tolist()
-        raise ValueError(f"snapshots: columns {bad[:10]} are zero (a mode shape must be non-zero)")
-    k = n_snap if n_modes is None else _check_count("n_modes", n_modes, 1, n_snap)
+        raise InputError("snapshots", f"columns {bad[:10]} are zero (a mode shape must be non-zero)")
+    k = n_snap if n_modes is None else check_int("n_modes", n_modes, 1, n_snap)
     if n_snap % k:
-        raise ValueError(f"n_modes: {k} does not divide the {n_snap} snapshots")
+        raise InputError("n_modes", f"{k} does not divide the {n_snap} snapshots")
     pn = p / norms
     u, s, vt = np.linalg.svd(pn, full_matrices=False)
     # numerical rank: directions with singular value above round-off
@@ -237,7 +226,7 @@ def mac_by_basis_size(candidates: np.ndarray, shapes: np.ndarray) -> np.ndarray:
     v = _as_2d("candidates", candidates)
     phi = _as_2d("shapes", shapes)
     if v.shape[0] != phi.shape[0]:
-        raise ValueError(f"shapes: has {phi.shape[0]} nodes, the candidates have {v.shape[0]}")
+        raise InputError("shapes", f"has {phi.shape[0]} nodes, the candidates have {v.shape[0]}")
     c2 = (v.T @ phi) ** 2
     norm2 = np.einsum("ij,ij->j", phi, phi)
     return np.minimum(np.cumsum(c2, axis=0) / np.where(norm2 > 0.0, norm2, 1.0), 1.0)
@@ -268,18 +257,18 @@ def project(basis_shapes: np.ndarray, shapes: np.ndarray, mac_threshold: float =
     """
     v = _as_2d("basis_shapes", basis_shapes)
     phi = _as_2d("shapes", shapes)
-    thr = _check_threshold(mac_threshold)
+    thr = check_unit_interval("mac_threshold", mac_threshold)
     if v.shape[0] != phi.shape[0]:
-        raise ValueError(f"shapes: has {phi.shape[0]} nodes, the basis has {v.shape[0]}")
+        raise InputError("shapes", f"has {phi.shape[0]} nodes, the basis has {v.shape[0]}")
     if v.shape[1] > v.shape[0]:
-        raise ValueError(f"basis_shapes: more shapes ({v.shape[1]}) than nodes ({v.shape[0]})")
+        raise InputError("basis_shapes", f"more shapes ({v.shape[1]}) than nodes ({v.shape[0]})")
     gram = v.T @ v
     if np.allclose(gram, np.eye(v.shape[1]), rtol=0.0, atol=1e-10):
         gamma = v.T @ phi
     else:
         gamma, _, rank, _ = np.linalg.lstsq(v, phi, rcond=None)
         if rank < v.shape[1]:
-            raise ValueError(f"basis_shapes: rank deficient ({rank} < {v.shape[1]} shapes)")
+            raise InputError("basis_shapes", f"rank deficient ({rank} < {v.shape[1]} shapes)")
     fitted = v @ gamma
     macs = np.atleast_1d(mac(fitted, phi))
     return Projection(
@@ -307,9 +296,9 @@ def build_basis_for_wing(
     ``map_fn`` (e.g. an executor's ``map``) may spread the per-sample modal analyses; ``progress``
     gets (fraction 0..1, message) and may raise to cancel.
     """
-    _check_threshold(mac_threshold)
-    _check_count("max_basis", max_basis, 1, 1000)
-    modes = _check_count("modes", modes, 1, 50)
+    check_unit_interval("mac_threshold", mac_threshold)
+    check_int("max_basis", max_basis, 1, 1000)
+    modes = check_int("modes", modes, 1, 50)
     designs = sample_designs(wing, samples, seed)
     if progress:
         progress(0.0, f"modal analysis of {samples} sample structures")

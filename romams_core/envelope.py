@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from romams_core.atmosphere import altitude_for_dynamic_pressure, flight_dynamic_pressure
+from romams_core.errors import InputError
 
 DEFAULT_MARGIN = 1.15
 DEFAULT_ALTITUDE_RANGE_M = (0.0, 20_000.0)
@@ -52,7 +53,7 @@ def _as_machs(mach: Any) -> np.ndarray:
     """Validated 1-D array of Mach numbers (> 0)."""
     m = np.atleast_1d(np.asarray(mach, dtype=float))
     if m.ndim != 1 or m.size == 0 or not np.all(np.isfinite(m)) or np.any(m <= 0):
-        raise ValueError(f"mach: must be a non-empty 1-D array of finite Mach numbers > 0, got {mach!r}")
+        raise InputError("mach", f"must be a non-empty 1-D array of finite Mach numbers > 0, got {mach!r}")
     return m
 
 
@@ -66,14 +67,14 @@ def safe_envelope(
     m = _as_machs(mach)
     qf = np.array([math.inf if (v is None or not math.isfinite(float(v))) else float(v) for v in q_flutter_pa])
     if qf.shape != m.shape:
-        raise ValueError(f"q_flutter_pa: needs one value per Mach ({m.size}), got {qf.size}")
+        raise InputError("q_flutter_pa", f"needs one value per Mach ({m.size}), got {qf.size}")
     if np.any(qf <= 0):
-        raise ValueError("q_flutter_pa: flutter dynamic pressures must be > 0")
+        raise InputError("q_flutter_pa", "flutter dynamic pressures must be > 0")
     if not (math.isfinite(margin) and margin >= 1.0):
-        raise ValueError(f"margin: must be a speed margin factor >= 1, got {margin!r}")
+        raise InputError("margin", f"must be a speed margin factor >= 1, got {margin!r}")
     h_lo, h_hi = (float(x) for x in altitude_range_m)
     if not (math.isfinite(h_lo) and math.isfinite(h_hi) and h_lo < h_hi):
-        raise ValueError(f"altitude_range_m: must be (low, high) with low < high, got {altitude_range_m!r}")
+        raise InputError("altitude_range_m", f"must be (low, high) with low < high, got {altitude_range_m!r}")
     q_safe = qf / margin**2
     alt = np.empty(m.size)
     status: list[str] = []
@@ -95,7 +96,7 @@ def envelope_from_results(
 ) -> Envelope:
     """Envelope from FlutterResult-like objects (.mach, .flutter_found, .q_flutter_pa)."""
     if not results:
-        raise ValueError("results: need at least one flutter result")
+        raise InputError("results", "need at least one flutter result")
     machs = [float(r.mach) for r in results]
     qf = [float(r.q_flutter_pa) if r.flutter_found and r.q_flutter_pa is not None else math.inf for r in results]
     return safe_envelope(machs, qf, margin, altitude_range_m)
@@ -110,11 +111,11 @@ ENVELOPE_TOL_M = 0.01
 def compare_envelopes(design: Envelope, benchmark: Envelope, tol_m: float = ENVELOPE_TOL_M) -> EnvelopeComparison:
     """Per-Mach check that the design's safe altitude is not above the benchmark's (+ ``tol_m`` m)."""
     if design.mach.shape != benchmark.mach.shape or not np.allclose(design.mach, benchmark.mach, atol=1e-9):
-        raise ValueError(
-            f"benchmark: Mach numbers {benchmark.mach.tolist()} differ from the design's {design.mach.tolist()}"
+        raise InputError(
+            "benchmark", f"Mach numbers {benchmark.mach.tolist()} differ from the design's {design.mach.tolist()}"
         )
     if not (math.isfinite(tol_m) and tol_m >= 0):
-        raise ValueError(f"tol_m: must be finite and >= 0, got {tol_m!r}")
+        raise InputError("tol_m", f"must be finite and >= 0, got {tol_m!r}")
     margin_m = benchmark.safe_altitude_m - design.safe_altitude_m
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = design.q_safe_pa / benchmark.q_safe_pa

@@ -25,6 +25,7 @@ from romams_core.envelope import (
     compare_envelopes,
     envelope_from_results,
 )
+from romams_core.errors import InputError
 from romams_core.flutter import FlutterResult, flutter_analysis
 from romams_core.statespace import to_modal
 
@@ -53,7 +54,7 @@ def _rom_parts(rom: Any, mach: float) -> tuple[Any, float]:
         return rom.ss, float(rom.c_ref)
     if isinstance(rom, tuple) and len(rom) == 2:
         return rom[0], float(rom[1])
-    raise ValueError(f"roms[{mach}]: needs .ss and .c_ref (a trained ROM), got {type(rom).__name__}")
+    raise InputError(f"roms[{mach}]", f"needs .ss and .c_ref (a trained ROM), got {type(rom).__name__}")
 
 
 def evaluate_structure(
@@ -76,19 +77,19 @@ def evaluate_structure(
     flutter_analysis (e.g. altitude_ref_m, q_max, n_points). Returns a StructureEvaluation.
     """
     if not roms:
-        raise ValueError("roms: need at least one Mach number")
+        raise InputError("roms", "need at least one Mach number")
     omega = np.asarray(getattr(modal, "omega", None), dtype=float)
     shapes = np.asarray(getattr(modal, "shapes", None), dtype=float)
     if omega.ndim != 1 or omega.size == 0:
-        raise ValueError("modal.omega: must be a 1-D array of circular frequencies (rad/s)")
+        raise InputError("modal.omega", "must be a 1-D array of circular frequencies (rad/s)")
     if shapes.ndim != 2 or shapes.shape[1] != omega.size:
-        raise ValueError(f"modal.shapes: must be [N, {omega.size}], got {shapes.shape}")
+        raise InputError("modal.shapes", f"must be [N, {omega.size}], got {shapes.shape}")
     mass = float(getattr(modal, "mass_kg", math.nan))
     proj = project(basis_shapes, shapes, mac_threshold)
     opts = dict(flutter_options or {})
     for key in ("sweep", "coupling", "zeta"):
         if key in opts:
-            raise ValueError(f"flutter_options: pass {key!r} as a keyword of evaluate_structure")
+            raise InputError("flutter_options", f"pass {key!r} as a keyword of evaluate_structure")
     machs = sorted(float(m) for m in roms)
     by_mach = {float(m): r for m, r in roms.items()}
     results: list[FlutterResult] = []

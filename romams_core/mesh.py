@@ -17,11 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-
-def _check_positive(name: str, value: float) -> None:
-    """Raise ValueError naming ``name`` unless value is finite and > 0."""
-    if not (isinstance(value, int | float | np.floating | np.integer) and math.isfinite(value) and value > 0):
-        raise ValueError(f"{name}: must be a finite number > 0, got {value!r}")
+from romams_core.errors import InputError
+from romams_core.validation import check_int, check_number
 
 
 @dataclass(frozen=True)
@@ -36,15 +33,13 @@ class Planform:
     n_span: int = 16
 
     def __post_init__(self) -> None:
-        _check_positive("planform.root_chord", self.root_chord)
-        _check_positive("planform.tip_chord", self.tip_chord)
-        _check_positive("planform.semispan", self.semispan)
+        check_number("planform.root_chord", self.root_chord, 0.0)
+        check_number("planform.tip_chord", self.tip_chord, 0.0)
+        check_number("planform.semispan", self.semispan, 0.0)
         if not (math.isfinite(self.sweep_le) and abs(self.sweep_le) < math.radians(80.0)):
-            raise ValueError(f"planform.sweep_le: must be finite with |sweep| < 80 deg, got {self.sweep_le!r} rad")
+            raise InputError("planform.sweep_le", f"must be finite with |sweep| < 80 deg, got {self.sweep_le!r} rad")
         for name in ("n_chord", "n_span"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | np.integer) and 1 <= v <= 200):
-                raise ValueError(f"planform.{name}: must be an integer in [1, 200], got {v!r}")
+            check_int(f"planform.{name}", getattr(self, name), 1, 200)
 
     @property
     def c_ref(self) -> float:

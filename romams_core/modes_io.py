@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
+from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
 from romams_core.structure.mapping import map_to_mesh
 from romams_core.structure.modal import ModalResult
@@ -56,39 +57,39 @@ class ExternalModes:
     def __post_init__(self) -> None:
         nodes = _float_array("nodes", self.nodes)
         if nodes.ndim != 2 or nodes.shape[1] not in (2, 3):
-            raise ValueError(f"nodes: expected shape [P, 3] (or [P, 2]), got {nodes.shape}")
+            raise InputError("nodes", f"expected shape [P, 3] (or [P, 2]), got {nodes.shape}")
         if nodes.shape[1] == 2:
             nodes = np.column_stack([nodes, np.zeros(nodes.shape[0])])
         n_pts = nodes.shape[0]
         if n_pts < 3:
-            raise ValueError(f"nodes: need at least 3 nodes, got {n_pts}")
+            raise InputError("nodes", f"need at least 3 nodes, got {n_pts}")
         freqs = _float_array("frequencies_hz", self.frequencies_hz)
         if freqs.ndim != 1 or freqs.size < 1:
-            raise ValueError(f"frequencies_hz: expected a non-empty list [k], got shape {freqs.shape}")
+            raise InputError("frequencies_hz", f"expected a non-empty list [k], got shape {freqs.shape}")
         if np.any(freqs <= 0.0):
-            raise ValueError(f"frequencies_hz: must all be > 0 Hz, got {freqs[freqs <= 0.0].tolist()[:5]}")
+            raise InputError("frequencies_hz", f"must all be > 0 Hz, got {freqs[freqs <= 0.0].tolist()[:5]}")
         k = freqs.size
         shapes = _float_array("shapes", self.shapes)
         if shapes.ndim == 1 and k == 1:
             shapes = shapes[:, None]
         if shapes.ndim != 2 or shapes.shape != (n_pts, k):
-            raise ValueError(
-                f"shapes: expected [{n_pts} nodes, {k} modes] to match nodes and frequencies_hz, got {shapes.shape}"
+            raise InputError(
+                "shapes", f"expected [{n_pts} nodes, {k} modes] to match nodes and frequencies_hz, got {shapes.shape}"
             )
         zero = np.flatnonzero(~np.any(shapes != 0.0, axis=0))
         if zero.size:
-            raise ValueError(f"shapes: modes {zero.tolist()} are identically zero")
+            raise InputError("shapes", f"modes {zero.tolist()} are identically zero")
         gm = None
         if self.generalized_masses is not None:
             gm = _float_array("generalized_masses", self.generalized_masses).ravel()
             if gm.size != k:
-                raise ValueError(f"generalized_masses: expected {k} values (one per mode), got {gm.size}")
+                raise InputError("generalized_masses", f"expected {k} values (one per mode), got {gm.size}")
             if np.any(gm <= 0.0):
-                raise ValueError("generalized_masses: must all be > 0")
+                raise InputError("generalized_masses", "must all be > 0")
         mass = self.mass_kg
         if mass is not None:
             if not (isinstance(mass, int | float | np.floating | np.integer) and math.isfinite(mass) and mass > 0):
-                raise ValueError(f"mass_kg: must be a finite number > 0 or null, got {mass!r}")
+                raise InputError("mass_kg", f"must be a finite number > 0 or null, got {mass!r}")
             mass = float(mass)
         self.nodes, self.shapes, self.frequencies_hz = nodes, shapes, freqs
         self.generalized_masses, self.mass_kg = gm, mass
@@ -110,9 +111,9 @@ def _float_array(name: str, value: Any) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: not a numeric array ({exc})") from None
+        raise InputError(name, f"not a numeric array ({exc})") from None
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: contains NaN or infinite values")
+        raise InputError(name, "contains NaN or infinite values")
     return arr
 
 
@@ -125,8 +126,8 @@ def _shapes_from_modes_first(name: str, value: Any, n_nodes: int, n_modes: int) 
         return arr
     if arr.ndim == 1 and n_modes == 1 and arr.size == n_nodes:
         return arr[:, None]
-    raise ValueError(
-        f"{name}: expected {n_modes} modes x {n_nodes} nodes (one list per mode) to match nodes and "
+    raise InputError(
+        name, f"expected {n_modes} modes x {n_nodes} nodes (one list per mode) to match nodes and "
         f"frequencies_hz, got shape {arr.shape}"
     )
 
@@ -134,15 +135,15 @@ def _shapes_from_modes_first(name: str, value: Any, n_nodes: int, n_modes: int) 
 def modes_from_dict(d: Mapping[str, Any], source: str = "json") -> ExternalModes:
     """ExternalModes from a mapping with keys nodes, shapes, frequencies_hz[, generalized_masses, mass_kg]."""
     if not isinstance(d, Mapping):
-        raise ValueError(f"modes: expected a JSON object, got {type(d).__name__}")
+        raise InputError("modes", f"expected a JSON object, got {type(d).__name__}")
     for key in ("nodes", "shapes", "frequencies_hz"):
         if key not in d:
-            raise ValueError(f"{key}: missing (required keys: nodes, shapes, frequencies_hz)")
+            raise InputError(key, "missing (required keys: nodes, shapes, frequencies_hz)")
     nodes = _float_array("nodes", d["nodes"])
     freqs = _float_array("frequencies_hz", d["frequencies_hz"])
     if nodes.ndim != 2 or freqs.ndim != 1:
-        raise ValueError(
-            f"nodes: expected [P, 3] with frequencies_hz [k]; got nodes {nodes.shape}, frequencies_hz {freqs.shape}"
+        raise InputError(
+            "nodes", f"expected [P, 3] with frequencies_hz [k]; got nodes {nodes.shape}, frequencies_hz {freqs.shape}"
         )
     shapes = _shapes_from_modes_first("shapes", d["shapes"], nodes.shape[0], freqs.size)
     return ExternalModes(
@@ -160,12 +161,12 @@ def load_modes_json(src: PathLike | Mapping[str, Any]) -> ExternalModes:
     if isinstance(src, Mapping):
         return modes_from_dict(src, "json")
     if not isinstance(src, str | os.PathLike):
-        raise ValueError(f"modes: expected a file path or a mapping, got {type(src).__name__}")
+        raise InputError("modes", f"expected a file path or a mapping, got {type(src).__name__}")
     path = Path(src)
     try:
         data = json.loads(path.read_text())
     except json.JSONDecodeError as exc:
-        raise ValueError(f"json: {path.name} is not valid JSON ({exc})") from None
+        raise InputError("json", f"{path.name} is not valid JSON ({exc})") from None
     return modes_from_dict(data, path.name)
 
 
@@ -173,7 +174,7 @@ def load_modes_npz(path: PathLike) -> ExternalModes:
     """Read external modes from an NPZ (nodes [P, 3], shapes [P, k], frequencies_hz [k], optional extras)."""
     path = Path(path)
     if not path.is_file() or not zipfile.is_zipfile(path):
-        raise ValueError(f"npz: {path.name} is not a readable NPZ archive")
+        raise InputError("npz", f"{path.name} is not a readable NPZ archive")
     try:
         with np.load(path, allow_pickle=False) as z:
             data: dict[str, Any] = {}
@@ -181,9 +182,9 @@ def load_modes_npz(path: PathLike) -> ExternalModes:
                 try:
                     data[key] = z[key]
                 except ValueError as exc:  # object arrays need pickle: refused
-                    raise ValueError(f"{key}: cannot be read without pickle ({exc})") from None
+                    raise InputError(key, f"cannot be read without pickle ({exc})") from None
     except (OSError, EOFError) as exc:
-        raise ValueError(f"npz: {path.name} is not a readable NPZ archive ({exc})") from None
+        raise InputError("npz", f"{path.name} is not a readable NPZ archive ({exc})") from None
     for key in ("generalized_masses", "mass_kg"):
         if key in data and data[key].size == 0:
             data.pop(key)
@@ -191,7 +192,7 @@ def load_modes_npz(path: PathLike) -> ExternalModes:
         data["mass_kg"] = float(np.asarray(data["mass_kg"]).ravel()[0])
     for key in ("nodes", "shapes", "frequencies_hz"):
         if key not in data:
-            raise ValueError(f"{key}: missing from {path.name} (required keys: nodes, shapes, frequencies_hz)")
+            raise InputError(key, f"missing from {path.name} (required keys: nodes, shapes, frequencies_hz)")
     nodes = _float_array("nodes", data["nodes"])
     freqs = _float_array("frequencies_hz", data["frequencies_hz"]).ravel()
     shapes = _float_array("shapes", data["shapes"])
@@ -248,7 +249,7 @@ def _grid_basic(model: Any, nids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Basic-frame positions [n, 3] (m) and output (CD) frame ids [n] of GRIDs ``nids``."""
     missing = [int(n) for n in nids if int(n) not in model.nodes]
     if missing:
-        raise ValueError(f"bdf: GRIDs {missing[:10]} of the OP2 eigenvectors are not in the BDF")
+        raise InputError("bdf", f"GRIDs {missing[:10]} of the OP2 eigenvectors are not in the BDF")
     nodes = [model.nodes[int(n)] for n in nids]
     xyz = np.array([nd.get_position() for nd in nodes], dtype=float)
     cd = np.array([int(nd.cd) for nd in nodes], dtype=int)
@@ -261,9 +262,9 @@ def _translations_to_basic(model: Any, t: np.ndarray, cd: np.ndarray) -> np.ndar
     for cid in np.unique(cd[cd != 0]):  # a handful of coordinate systems
         coord = model.coords.get(int(cid))
         if coord is None:
-            raise ValueError(f"bdf: output coordinate system CD={cid} is not defined")
+            raise InputError("bdf", f"output coordinate system CD={cid} is not defined")
         if coord.Type != "R":
-            raise ValueError(f"bdf: output coordinate system CD={cid} is {coord.type}; only rectangular is supported")
+            raise InputError("bdf", f"output coordinate system CD={cid} is {coord.type}; only rectangular is supported")
         if coord.i is None:
             coord.setup()
         rot = np.vstack([coord.i, coord.j, coord.k])  # rows: local unit axes in the basic frame
@@ -287,7 +288,7 @@ def load_modes_nastran(
     bdf_file, op2_file = Path(bdf_path), Path(op2_path)
     for name, p in (("bdf", bdf_file), ("op2", op2_file)):
         if not p.is_file():
-            raise ValueError(f"{name}: file {p.name!r} not found")
+            raise InputError(name, f"file {p.name!r} not found")
     BDF, OP2 = _import_pynastran()
     model = BDF(debug=None)
     try:
@@ -300,28 +301,28 @@ def load_modes_nastran(
     except ValueError:
         raise
     except Exception as exc:  # pyNastran raises many types on malformed decks
-        raise ValueError(f"bdf: cannot read {bdf_file.name} ({type(exc).__name__}: {exc})") from None
+        raise InputError("bdf", f"cannot read {bdf_file.name} ({type(exc).__name__}: {exc})") from None
     if not model.nodes:
-        raise ValueError(f"bdf: {bdf_file.name} defines no GRID")
+        raise InputError("bdf", f"{bdf_file.name} defines no GRID")
     op2 = OP2(debug=None)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)  # np.chararray inside pyNastran 1.4.1
             op2.read_op2(str(op2_file), build_dataframe=False)
     except Exception as exc:
-        raise ValueError(f"op2: cannot read {op2_file.name} ({type(exc).__name__}: {exc})") from None
+        raise InputError("op2", f"cannot read {op2_file.name} ({type(exc).__name__}: {exc})") from None
     vecs = {k: v for k, v in op2.eigenvectors.items() if getattr(v, "is_real", True)}
     if not vecs:
-        raise ValueError(f"op2: {op2_file.name} holds no real eigenvectors (a SOL 103 run with DISP output)")
+        raise InputError("op2", f"{op2_file.name} holds no real eigenvectors (a SOL 103 run with DISP output)")
     keys = sorted(vecs, key=str)
     if subcase is None:
         if len(keys) > 1:
-            raise ValueError(f"subcase: {op2_file.name} has several eigenvector subcases {keys}; choose one")
+            raise InputError("subcase", f"{op2_file.name} has several eigenvector subcases {keys}; choose one")
         key = keys[0]
     else:
         match = [k for k in keys if k == subcase or (isinstance(k, tuple) and k[0] == subcase)]
         if not match:
-            raise ValueError(f"subcase: {subcase} not in {op2_file.name} (has {keys})")
+            raise InputError("subcase", f"{subcase} not in {op2_file.name} (has {keys})")
         key = match[0]
     vec = vecs[key]
     data = np.asarray(vec.data, dtype=float)  # [k, n, 6]
@@ -330,9 +331,9 @@ def load_modes_nastran(
     eigns = np.asarray(getattr(vec, "eigns", []), dtype=float)
     modes = np.asarray(getattr(vec, "modes", np.arange(1, data.shape[0] + 1)), dtype=int)
     if eigns.size != data.shape[0]:
-        raise ValueError(f"op2: {eigns.size} eigenvalues for {data.shape[0]} eigenvectors")
+        raise InputError("op2", f"{eigns.size} eigenvalues for {data.shape[0]} eigenvectors")
     if np.any(eigns < 0.0):
-        raise ValueError(f"frequencies_hz: negative eigenvalues {eigns[eigns < 0].tolist()[:5]} (rigid-body modes?)")
+        raise InputError("frequencies_hz", f"negative eigenvalues {eigns[eigns < 0].tolist()[:5]} (rigid-body modes?)")
     xyz, cd = _grid_basic(model, nids)
     t_basic = _translations_to_basic(model, data[:, grid, :3], cd)
     gm = None
@@ -344,7 +345,7 @@ def load_modes_nastran(
             break
     k = data.shape[0] if n_modes is None else int(n_modes)
     if not 1 <= k <= data.shape[0]:
-        raise ValueError(f"n_modes: must be in [1, {data.shape[0]}], got {n_modes!r}")
+        raise InputError("n_modes", f"must be in [1, {data.shape[0]}], got {n_modes!r}")
     return ExternalModes(
         nodes=xyz,
         shapes=t_basic[:k, :, 2].T,
@@ -363,25 +364,25 @@ def check_coverage(points_xy: np.ndarray, mesh: StandardMesh) -> None:
     on_wing = np.all((fe >= -_MARGIN) & (fe <= 1.0 + _MARGIN), axis=1)
     if on_wing.mean() < _MIN_ON_WING:
         lo, hi = pts.min(axis=0), pts.max(axis=0)
-        raise ValueError(
-            f"nodes: only {on_wing.mean():.0%} of the FE nodes lie on the planform (nodes span "
+        raise InputError(
+            "nodes", f"only {on_wing.mean():.0%} of the FE nodes lie on the planform (nodes span "
             f"x {lo[0]:.4g}..{hi[0]:.4g} m, y {lo[1]:.4g}..{hi[1]:.4g} m; wrong units or axes? "
             "x aft, y span from the root, metres)"
         )
     if np.unique(np.round(pts / max(np.ptp(pts), 1e-300), 12), axis=0).shape[0] < pts.shape[0]:
-        raise ValueError("nodes: two or more nodes share the same in-plane position")
+        raise InputError("nodes", "two or more nodes share the same in-plane position")
     m_xi, m_eta = mesh.planform.to_xi_eta(mesh.x, mesh.y)
     target = np.column_stack([m_xi, m_eta])
     gap, _ = cKDTree(fe).query(target)
     try:
         hull = Delaunay(fe)
     except QhullError:
-        raise ValueError("nodes: the FE nodes are collinear and cannot cover the planform") from None
+        raise InputError("nodes", "the FE nodes are collinear and cannot cover the planform") from None
     shrunk = 0.5 + (target - 0.5) * 0.96  # tolerate round-off and edge nodes slightly inside the edges
     inside = float(np.mean(hull.find_simplex(shrunk) >= 0))
     if gap.max() > _MAX_GAP or inside < _MIN_INSIDE:
-        raise ValueError(
-            f"nodes: the FE nodes do not cover the planform (largest gap {gap.max():.2f} in chord/span fractions, "
+        raise InputError(
+            "nodes", f"the FE nodes do not cover the planform (largest gap {gap.max():.2f} in chord/span fractions, "
             f"{inside:.0%} of the wing inside the nodes' hull; need <= {_MAX_GAP} and >= {_MIN_INSIDE:.0%})"
         )
 
@@ -391,8 +392,8 @@ def external_modal_result(modes: ExternalModes, mesh: StandardMesh, smooth: bool
     planform = mesh.planform
     z = modes.nodes[:, 2]
     if np.ptp(z) > _MAX_Z_SPREAD * max(planform.root_chord, planform.semispan):
-        raise ValueError(
-            f"nodes: z spans {np.ptp(z):.4g} m; the nodes must lie near the wing plane z = 0 (x aft, y span, z up)"
+        raise InputError(
+            "nodes", f"z spans {np.ptp(z):.4g} m; the nodes must lie near the wing plane z = 0 (x aft, y span, z up)"
         )
     xy = modes.nodes[:, :2]
     check_coverage(xy, mesh)

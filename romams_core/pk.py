@@ -38,6 +38,7 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import brentq
 
 from romams_core.atmosphere import isa, isa_table
+from romams_core.errors import InputError
 from romams_core.flutter import SWEEPS, check_flutter_inputs, finite_positive
 from romams_core.mesh import StandardMesh
 
@@ -59,13 +60,13 @@ class AeroTable:
         self.k = np.asarray(self.k, dtype=float)
         self.h = np.asarray(self.h, dtype=complex)
         if self.k.ndim != 1 or self.k.size < 4:
-            raise ValueError(f"k: must be a 1-D grid of at least 4 reduced frequencies, got shape {self.k.shape}")
+            raise InputError("k", f"must be a 1-D grid of at least 4 reduced frequencies, got shape {self.k.shape}")
         if not np.all(np.isfinite(self.k)) or np.any(np.diff(self.k) <= 0) or self.k[0] < 0:
-            raise ValueError("k: must be finite, >= 0 and strictly ascending")
+            raise InputError("k", "must be finite, >= 0 and strictly ascending")
         if self.h.ndim != 3 or self.h.shape[0] != self.k.size or self.h.shape[1] != self.h.shape[2]:
-            raise ValueError(f"h: must have shape ({self.k.size}, m, m), got {self.h.shape}")
+            raise InputError("h", f"must have shape ({self.k.size}, m, m), got {self.h.shape}")
         if not np.all(np.isfinite(self.h)):
-            raise ValueError("h: contains non-finite values")
+            raise InputError("h", "contains non-finite values")
         self._spline = CubicSpline(self.k, self.h, axis=0)
 
     def __call__(self, k: np.ndarray) -> np.ndarray:
@@ -74,8 +75,8 @@ class AeroTable:
         lo, hi = self.k[0], self.k[-1]
         tol = 1e-9 * max(hi, 1.0)
         if np.any(k < lo - tol) or np.any(k > hi + tol):
-            raise ValueError(f"k: reduced frequency {float(k.min()):.6g} .. {float(k.max()):.6g} outside the "
-                             f"aerodynamic table [{lo:.6g}, {hi:.6g}]; tabulate a wider k range")
+            raise InputError("k", f"reduced frequency {float(k.min()):.6g} .. {float(k.max()):.6g} outside the "
+                                  f"aerodynamic table [{lo:.6g}, {hi:.6g}]; tabulate a wider k range")
         return self._spline(np.clip(k, lo, hi))
 
 
@@ -98,9 +99,9 @@ def uvlm_table(
     from romams_core.aero.uvlm import UvlmSolver, build_uvlm, frequency_response, refine_mesh
 
     if not (math.isfinite(k_max) and k_max > 0):
-        raise ValueError(f"k_max: must be finite and > 0, got {k_max!r}")
+        raise InputError("k_max", f"must be finite and > 0, got {k_max!r}")
     if not (isinstance(n_k, int | np.integer) and n_k >= 4):
-        raise ValueError(f"n_k: must be an integer >= 4, got {n_k!r}")
+        raise InputError("n_k", f"must be an integer >= 4, got {n_k!r}")
     solver = UvlmSolver() if solver is None else solver
     r = int(solver.refine)
     lattice, interp = refine_mesh(mesh, r)
@@ -153,10 +154,10 @@ class PkResult:
 def _aero_fn(aero: Any, m: int) -> AeroFn:
     """Vectorized H(k) [n, m, m] from an AeroTable or a callable of k [n] (checked on one value)."""
     if not callable(aero):
-        raise ValueError("aero: must be an AeroTable or a callable k[n] -> H[n, m, m]")
+        raise InputError("aero", "must be an AeroTable or a callable k[n] -> H[n, m, m]")
     probe = np.asarray(aero(np.array([0.1 if not isinstance(aero, AeroTable) else aero.k[0]])), dtype=complex)
     if probe.shape != (1, m, m):
-        raise ValueError(f"aero: H(k) must have shape (n, {m}, {m}) for {m} structural modes, got {probe.shape}")
+        raise InputError("aero", f"H(k) must have shape (n, {m}, {m}) for {m} structural modes, got {probe.shape}")
     return lambda k: np.asarray(aero(k), dtype=complex)
 
 
@@ -258,11 +259,11 @@ def pk_flutter(
     parameter. Returns a PkResult (no flutter in range: flutter_found False).
     """
     if sweep not in SWEEPS:
-        raise ValueError(f"sweep: must be one of {SWEEPS}, got {sweep!r}")
+        raise InputError("sweep", f"must be one of {SWEEPS}, got {sweep!r}")
     om, zt, c_ref, mach = check_flutter_inputs(omega, zeta, c_ref, mach, sweep)
     n = om.size
     if not (isinstance(n_points, int | np.integer) and 4 <= n_points <= 5000):
-        raise ValueError(f"n_points: must be an integer in [4, 5000], got {n_points!r}")
+        raise InputError("n_points", f"must be an integer in [4, 5000], got {n_points!r}")
     rtol = finite_positive("rtol", rtol)
     h = _aero_fn(aero, n)
     if rho_ref is None or a_ref is None:
@@ -274,7 +275,7 @@ def pk_flutter(
     # sweep parameter s -> (V, rho); s = s0 is q = 0, where the branches start at the in-vacuo poles
     if sweep == "constant-density":
         if v_max is None and mach <= 0:
-            raise ValueError("v_max: required for a constant-density sweep with mach = 0")
+            raise InputError("v_max", "required for a constant-density sweep with mach = 0")
         s_end = finite_positive("v_max", 3.0 * mach * a_ref if v_max is None else v_max)
 
         def cond(s: float) -> tuple[float, float]:
@@ -294,7 +295,7 @@ def pk_flutter(
     else:
         h_lo, h_hi = (float(x) for x in altitude_range_m)
         if not (math.isfinite(h_lo) and math.isfinite(h_hi) and h_lo < h_hi):
-            raise ValueError(f"altitude_range_m: must be (low, high) with low < high, got {altitude_range_m!r}")
+            raise InputError("altitude_range_m", f"must be (low, high) with low < high, got {altitude_range_m!r}")
         isa_table(h_lo)
         rho_top, a_top, _ = isa_table(h_hi)
 
@@ -429,7 +430,7 @@ def fom_flutter(
     dk = finite_positive("dk", dk)
     mach_f = float(mach)
     if not (math.isfinite(mach_f) and mach_f > 0):
-        raise ValueError(f"mach: must be finite and > 0, got {mach!r}")
+        raise InputError("mach", f"must be finite and > 0, got {mach!r}")
     st = isa(float(kwargs.get("altitude_ref_m", DEFAULT_ALTITUDE_REF_M)))
     a_ref = float(kwargs.get("a_ref") or st.a)
     if sweep == "matched":
@@ -438,8 +439,8 @@ def fom_flutter(
     elif sweep == "constant-speed":
         v_min = mach_f * a_ref
     else:
-        raise ValueError(f"sweep: fom_flutter supports 'constant-speed' and 'matched' (a constant-density sweep "
-                         f"starts at V -> 0, i.e. k -> infinity, beyond any table), got {sweep!r}")
+        raise InputError("sweep", f"fom_flutter supports 'constant-speed' and 'matched' (a constant-density sweep "
+                                  f"starts at V -> 0, i.e. k -> infinity, beyond any table), got {sweep!r}")
     k_max = 1.3 * float(np.max(om)) * 0.5 * mesh.c_ref / v_min + 0.1
     for attempt in range(3):  # a root beyond the table (aerodynamic stiffening) doubles the k range, twice at most
         n_k = max(4, int(math.ceil(k_max / dk)) + 1)

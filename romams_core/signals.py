@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from romams_core.errors import InputError
+
 __all__ = ["Excitation", "multisine", "excitation_signals", "displacement_amplitude", "cross_correlation"]
 
 
@@ -46,21 +48,21 @@ def multisine(
     tapered while its columns have zero mutual inner product; each column has unit RMS.
     """
     if not (isinstance(n_steps, int | np.integer) and n_steps >= 16):
-        raise ValueError(f"n_steps: must be an integer >= 16, got {n_steps!r}")
+        raise InputError("n_steps", f"must be an integer >= 16, got {n_steps!r}")
     if not (isinstance(n_signals, int | np.integer) and n_signals >= 1):
-        raise ValueError(f"n_signals: must be an integer >= 1, got {n_signals!r}")
+        raise InputError("n_signals", f"must be an integer >= 1, got {n_signals!r}")
     if not (math.isfinite(k_max) and k_max > 0):
-        raise ValueError(f"k_max: must be a finite number > 0, got {k_max!r}")
+        raise InputError("k_max", f"must be a finite number > 0, got {k_max!r}")
     omega = 2.0 * math.pi * np.fft.rfftfreq(n_steps, d=dt_star)  # rad per unit t*
     band = (omega > 0) & (omega <= 2.0 * k_max)
     n_band = int(band.sum())
     if n_band < n_signals + 2:
-        raise ValueError(
-            f"n_steps: {n_steps} steps of dt_star = {dt_star:g} resolve only {n_band} frequencies up to "
+        raise InputError(
+            "n_steps", f"{n_steps} steps of dt_star = {dt_star:g} resolve only {n_band} frequencies up to "
             f"k_max = {k_max:g}; need more than {n_signals + 2}"
         )
     if 2.0 * k_max * dt_star >= math.pi:
-        raise ValueError(f"dt_star: {dt_star:g} cannot resolve k_max = {k_max:g} (2 k dt* must be < pi)")
+        raise InputError("dt_star", f"{dt_star:g} cannot resolve k_max = {k_max:g} (2 k dt* must be < pi)")
     spec = np.zeros((omega.size, n_signals), dtype=complex)
     spec[band] = np.exp(2j * math.pi * rng.random((n_band, n_signals)))
     x = np.fft.irfft(spec, n=n_steps, axis=0)
@@ -89,17 +91,17 @@ def excitation_signals(
     """Training and independent validation signals [T, m] for shapes [N, m] (m); peak displacement ~ fraction c_ref."""
     shapes = np.asarray(shapes, dtype=float)
     if shapes.ndim != 2:
-        raise ValueError(f"shapes: expected [N, m], got shape {shapes.shape}")
+        raise InputError("shapes", f"expected [N, m], got shape {shapes.shape}")
     if not (math.isfinite(c_ref) and c_ref > 0):
-        raise ValueError(f"c_ref: must be a finite number > 0, got {c_ref!r}")
+        raise InputError("c_ref", f"must be a finite number > 0, got {c_ref!r}")
     if not (0 < displacement_fraction < 0.2):
-        raise ValueError(f"displacement_fraction: must be in (0, 0.2), got {displacement_fraction!r}")
+        raise InputError("displacement_fraction", f"must be in (0, 0.2), got {displacement_fraction!r}")
     m = shapes.shape[1]
     train = multisine(n_steps, m, dt_star, k_max, np.random.default_rng([seed, 0]))
     val = multisine(n_steps, m, dt_star, k_max, np.random.default_rng([seed, 1]))
     peak = max(displacement_amplitude(shapes, train), displacement_amplitude(shapes, val))
     if not peak > 0:
-        raise ValueError("shapes: all-zero shapes cannot be excited")
+        raise InputError("shapes", "all-zero shapes cannot be excited")
     scale = displacement_fraction * c_ref / peak
     return Excitation(
         train=train * scale,

@@ -144,7 +144,7 @@ def band_gramians(ss: DiscreteSS, k_band: float, n_quad: int = 128) -> tuple[np.
     triangular solves in the complex Schur basis of A.
     """
     if not (math.isfinite(k_band) and k_band > 0):
-        raise ValueError(f"k_band: must be a finite number > 0, got {k_band!r}")
+        raise InputError("k_band", f"must be a finite number > 0, got {k_band!r}")
     theta_max = min(math.pi, 2.0 * k_band * ss.dt_star)
     x, w = np.polynomial.legendre.leggauss(int(n_quad))
     theta = theta_max * x  # nodes on [-theta_max, theta_max]
@@ -186,10 +186,10 @@ def balanced_truncation(
     if order is None:
         tol = 1e-8 if hsv_tol is None else float(hsv_tol)
         if not (math.isfinite(tol) and tol >= 0):
-            raise ValueError(f"hsv_tol: must be a finite number >= 0, got {hsv_tol!r}")
+            raise InputError("hsv_tol", f"must be a finite number >= 0, got {hsv_tol!r}")
         order = int(np.sum(hsv > tol * hsv[0])) if hsv.size and hsv[0] > 0 else 0
     if not (isinstance(order, int | np.integer) and 0 <= order <= ss.n_states):
-        raise ValueError(f"order: must be an integer in [0, {ss.n_states}], got {order!r}")
+        raise InputError("order", f"must be an integer in [0, {ss.n_states}], got {order!r}")
     return _truncate(ss, factors, int(order)), hsv
 
 
@@ -204,7 +204,7 @@ def balanced_models(
 def _balancing_factors(ss: DiscreteSS, k_band: float | None) -> tuple[np.ndarray, ...]:
     """Square-root balancing data (U, HSV, V^T, L_c, L_o) of a stable model (plain or band-limited gramians)."""
     if not ss.is_stable():
-        raise ValueError(f"ss: balanced truncation needs a stable model (spectral radius {ss.spectral_radius():.6f})")
+        raise InputError("ss", f"balanced truncation needs a stable model (spectral radius {ss.spectral_radius():.6f})")
     if k_band is None:
         wc = sla.solve_discrete_lyapunov(ss.A, ss.B @ ss.B.T)
         wo = sla.solve_discrete_lyapunov(ss.A.T, ss.C.T @ ss.C)
@@ -283,7 +283,7 @@ def to_modal(ss: DiscreteSS, gamma: np.ndarray) -> DiscreteSS:
     """Basis-coordinate model -> real modal coordinates: u = gamma xi, F = gamma^T f (gamma [m, k]), exact."""
     gamma = np.asarray(gamma, dtype=float)
     if gamma.ndim != 2 or gamma.shape[0] != ss.n_inputs or ss.n_inputs != ss.n_outputs:
-        raise ValueError(f"gamma: expected shape [{ss.n_inputs}, k] for a square {ss.n_outputs}x{ss.n_inputs} model")
+        raise InputError("gamma", f"expected shape [{ss.n_inputs}, k] for a square {ss.n_outputs}x{ss.n_inputs} model")
     return DiscreteSS(A=ss.A.copy(), B=ss.B @ gamma, C=gamma.T @ ss.C, D=gamma.T @ ss.D @ gamma, dt_star=ss.dt_star)
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from romams_core.aero.protocol import ProgressFn, UnsteadySolver, check_dt_star, check_mach, check_shapes
 from romams_core.arx import ArxModel, arx_simulate, fit_arx, nrmse
+from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
 from romams_core.signals import excitation_signals
 from romams_core.statespace import (
@@ -137,12 +138,12 @@ def train_rom(
     shapes = check_shapes(mesh, shapes)
     dt_star = check_dt_star(1.0 / mesh.n_chord if dt_star is None else dt_star)
     if not (math.isfinite(nrmse_tol) and nrmse_tol > 0):
-        raise ValueError(f"nrmse_tol: must be a finite number > 0, got {nrmse_tol!r}")
+        raise InputError("nrmse_tol", f"must be a finite number > 0, got {nrmse_tol!r}")
     m = shapes.shape[1]
     if n_steps is None:
         n_steps = default_n_steps(m, na, nb, dt_star, k_max)
     if not (isinstance(n_steps, int | np.integer) and n_steps >= 16):
-        raise ValueError(f"n_steps: must be an integer >= 16, got {n_steps!r}")
+        raise InputError("n_steps", f"must be an integer >= 16, got {n_steps!r}")
     exc = excitation_signals(shapes, mesh.c_ref, int(n_steps), dt_star, k_max=k_max, seed=seed)
 
     def _solver_progress(frac: float, msg: str) -> None:
@@ -187,7 +188,7 @@ def train_rom(
         ss, hsv = _auto_reduce(full, both, gac, n, m, k_max, reduce_tol)
     elif reduce_order is not None or hsv_tol is not None:
         if isinstance(reduce_order, str):
-            raise ValueError(f"reduce_order: must be an integer, 'auto' or None, got {reduce_order!r}")
+            raise InputError("reduce_order", f"must be an integer, 'auto' or None, got {reduce_order!r}")
         if progress is not None:
             progress(0.95, "balanced truncation")
         ss, hsv = balanced_truncation(full, order=reduce_order, hsv_tol=hsv_tol)

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from romams_core.errors import InputError
 from romams_core.statespace import DiscreteSS
 
 JONES_A = (0.165, 0.335)
@@ -55,11 +56,11 @@ class TypicalSection:
         for name in ("r_alpha2", "omega_ratio", "mu", "semichord_m", "omega_alpha", "rho"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"{name}: must be finite and > 0, got {v!r}")
+                raise InputError(name, f"must be finite and > 0, got {v!r}")
         if not (math.isfinite(self.a) and -1.0 <= self.a <= 1.0):
-            raise ValueError(f"a: must be in [-1, 1] semichords, got {self.a!r}")
+            raise InputError("a", f"must be in [-1, 1] semichords, got {self.a!r}")
         if self.r_alpha2 <= self.x_alpha**2:
-            raise ValueError("r_alpha2: must exceed x_alpha^2 (positive definite mass matrix)")
+            raise InputError("r_alpha2", "must exceed x_alpha^2 (positive definite mass matrix)")
 
     @property
     def c_ref(self) -> float:
@@ -135,7 +136,7 @@ def _foh(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarra
 def jones_discrete(ts: TypicalSection, dt_star: float, modal: bool = True) -> DiscreteSS:
     """Discrete aero model (A, B, C, D, dt_star) in t*; inputs/outputs modal (mass-normalized) or physical."""
     if not (math.isfinite(dt_star) and 0 < dt_star <= 1.0):
-        raise ValueError(f"dt_star: must be in (0, 1], got {dt_star!r}")
+        raise InputError("dt_star", f"must be in (0, 1], got {dt_star!r}")
     ct = jones_continuous(ts)
     phi_l, g0, g1 = _foh(ct["A"], ct["B"], dt_star)
     nl, nu = ct["B"].shape

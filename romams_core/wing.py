@@ -20,28 +20,11 @@ from typing import Any
 
 import numpy as np
 
+from romams_core.errors import InputError
 from romams_core.mesh import Planform
+from romams_core.validation import check_int, check_number
 
 THICKNESS_FORMS = ("constant", "naca4", "naca65a004")
-
-
-def _check_finite(name: str, value: Any, lower: float | None = None, strict: bool = True) -> None:
-    """Raise ValueError naming ``name`` unless value is a finite real number above ``lower``."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ValueError(f"{name}: must be a number, got {value!r}")
-    if not math.isfinite(float(value)):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
-    if lower is not None:
-        if strict and not value > lower:
-            raise ValueError(f"{name}: must be > {lower:g}, got {value!r}")
-        if not strict and not value >= lower:
-            raise ValueError(f"{name}: must be >= {lower:g}, got {value!r}")
-
-
-def _check_int(name: str, value: Any, lower: int, upper: int) -> None:
-    """Raise ValueError naming ``name`` unless value is an integer in [lower, upper]."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not lower <= value <= upper:
-        raise ValueError(f"{name}: must be an integer in [{lower}, {upper}], got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -58,14 +41,15 @@ class DesignVariable:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
-            raise ValueError("design_variable.name: must be a non-empty string")
-        _check_finite(f"design_variable {self.name}.lower", self.lower)
-        _check_finite(f"design_variable {self.name}.upper", self.upper)
+            raise InputError("design_variable.name", "must be a non-empty string")
+        where = f"design_variables.{self.name}"
+        check_number(f"{where}.lower", self.lower)
+        check_number(f"{where}.upper", self.upper)
         if not self.upper > self.lower:
-            raise ValueError(f"design_variable {self.name}.upper: must be > lower ({self.lower:g}), got {self.upper!r}")
-        _check_finite(f"design_variable {self.name}.scale", self.scale)
+            raise InputError(f"{where}.upper", f"must be > lower ({self.lower:g}), got {self.upper!r}")
+        check_number(f"{where}.scale", self.scale)
         if self.scale == 0:
-            raise ValueError(f"design_variable {self.name}.scale: must be non-zero")
+            raise InputError(f"{where}.scale", "must be non-zero")
 
 
 @dataclass(frozen=True)
@@ -81,19 +65,19 @@ class PlateMaterial:
 
     def __post_init__(self) -> None:
         for f in ("E1", "E2", "G12", "density"):
-            _check_finite(f"material.{f}", getattr(self, f), 0.0)
-        _check_finite("material.nu12", self.nu12)
-        _check_finite("material.orientation", self.orientation)
+            check_number(f"material.{f}", getattr(self, f), 0.0)
+        check_number("material.nu12", self.nu12)
+        check_number("material.orientation", self.orientation)
         if self.nu12 ** 2 * self.E2 / self.E1 >= 1.0:
-            raise ValueError(f"material.nu12: nu12^2 E2/E1 must be < 1, got {self.nu12!r}")
+            raise InputError("material.nu12", f"nu12^2 E2/E1 must be < 1, got {self.nu12!r}")
 
     @classmethod
     def isotropic(cls, E: float, nu: float, density: float) -> PlateMaterial:
         """Isotropic material from Young's modulus (Pa), Poisson ratio and density (kg/m^3)."""
-        _check_finite("material.E", E, 0.0)
-        _check_finite("material.nu", nu)
+        check_number("material.E", E, 0.0)
+        check_number("material.nu", nu)
         if not -1.0 < nu < 0.5:
-            raise ValueError(f"material.nu: must be in (-1, 0.5), got {nu!r}")
+            raise InputError("material.nu", f"must be in (-1, 0.5), got {nu!r}")
         return cls(E1=E, E2=E, G12=E / (2.0 * (1.0 + nu)), nu12=nu, density=density)
 
     def plane_stress_q(self) -> np.ndarray:
@@ -130,11 +114,11 @@ class StiffeningBeam:
     def __post_init__(self) -> None:
         for f in ("root_position", "tip_position"):
             v = getattr(self, f)
-            _check_finite(f"structure.beam.{f}", v)
+            check_number(f"structure.beam.{f}", v)
             if not 0.0 < v < 1.0:
-                raise ValueError(f"structure.beam.{f}: must be a chord fraction in (0, 1), got {v!r}")
-        _check_finite("structure.beam.height", self.height, 0.0)
-        _check_finite("structure.beam.width_ratio", self.width_ratio, 0.0)
+                raise InputError(f"structure.beam.{f}", f"must be a chord fraction in (0, 1), got {v!r}")
+        check_number("structure.beam.height", self.height, 0.0)
+        check_number("structure.beam.width_ratio", self.width_ratio, 0.0)
 
     @property
     def width(self) -> float:
@@ -150,10 +134,10 @@ class LumpedMass:
     span_fraction: float
 
     def __post_init__(self) -> None:
-        _check_finite("structure.lumped_mass.mass", self.mass, 0.0, strict=False)
-        _check_finite("structure.lumped_mass.span_fraction", self.span_fraction)
+        check_number("structure.lumped_mass.mass", self.mass, 0.0, strict=False)
+        check_number("structure.lumped_mass.span_fraction", self.span_fraction)
         if not 0.0 <= self.span_fraction <= 1.0:
-            raise ValueError(f"structure.lumped_mass.span_fraction: must be in [0, 1], got {self.span_fraction!r}")
+            raise InputError("structure.lumped_mass.span_fraction", f"must be in [0, 1], got {self.span_fraction!r}")
 
 
 @dataclass(frozen=True)
@@ -181,19 +165,20 @@ class PlateStructure:
 
     def __post_init__(self) -> None:
         if not isinstance(self.material, PlateMaterial):
-            raise ValueError("structure.material: must be a PlateMaterial")
-        _check_finite("structure.thickness", self.thickness, 0.0)
+            raise InputError("structure.material", "must be a PlateMaterial")
+        check_number("structure.thickness", self.thickness, 0.0)
         if self.thickness_form not in THICKNESS_FORMS:
-            raise ValueError(f"structure.thickness_form: must be one of {THICKNESS_FORMS}, got {self.thickness_form!r}")
-        _check_finite("structure.thickness_to_chord", self.thickness_to_chord, 0.0)
-        _check_finite("structure.min_thickness_fraction", self.min_thickness_fraction, 0.0, strict=False)
-        _check_finite("structure.thickness_ratio", self.thickness_ratio, 0.0)
-        _check_int("structure.fe_n_chord", self.fe_n_chord, 2, 200)
-        _check_int("structure.fe_n_span", self.fe_n_span, 2, 400)
+            raise InputError("structure.thickness_form",
+                             f"must be one of {THICKNESS_FORMS}, got {self.thickness_form!r}")
+        check_number("structure.thickness_to_chord", self.thickness_to_chord, 0.0)
+        check_number("structure.min_thickness_fraction", self.min_thickness_fraction, 0.0, strict=False)
+        check_number("structure.thickness_ratio", self.thickness_ratio, 0.0)
+        check_int("structure.fe_n_chord", self.fe_n_chord, 2, 200)
+        check_int("structure.fe_n_span", self.fe_n_span, 2, 400)
         if self.beam is not None and not isinstance(self.beam, StiffeningBeam):
-            raise ValueError("structure.beam: must be a StiffeningBeam or None")
+            raise InputError("structure.beam", "must be a StiffeningBeam or None")
         if self.lumped_mass is not None and not isinstance(self.lumped_mass, LumpedMass):
-            raise ValueError("structure.lumped_mass: must be a LumpedMass or None")
+            raise InputError("structure.lumped_mass", "must be a LumpedMass or None")
 
 
 @dataclass(frozen=True)
@@ -215,13 +200,13 @@ class BeamStructure:
 
     def __post_init__(self) -> None:
         for f in ("EI", "GJ", "mass_per_length", "inertia_ea_per_length"):
-            _check_finite(f"structure.{f}", getattr(self, f), 0.0)
+            check_number(f"structure.{f}", getattr(self, f), 0.0)
         for f in ("ea_chord_fraction", "cg_chord_fraction"):
             v = getattr(self, f)
-            _check_finite(f"structure.{f}", v)
+            check_number(f"structure.{f}", v)
             if not 0.0 <= v <= 1.0:
-                raise ValueError(f"structure.{f}: must be a chord fraction in [0, 1], got {v!r}")
-        _check_int("structure.n_elements", self.n_elements, 1, 1000)
+                raise InputError(f"structure.{f}", f"must be a chord fraction in [0, 1], got {v!r}")
+        check_int("structure.n_elements", self.n_elements, 1, 1000)
 
 
 Structure = PlateStructure | BeamStructure
@@ -256,38 +241,38 @@ class WingDefinition:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
-            raise ValueError("name: must be a non-empty string")
-        _check_finite("modal_damping", self.modal_damping, lower=0.0, strict=False)
+            raise InputError("name", "must be a non-empty string")
+        check_number("modal_damping", self.modal_damping, lower=0.0, strict=False)
         if self.modal_damping >= 1.0:
-            raise ValueError(f"modal_damping: must be a damping ratio in [0, 1), got {self.modal_damping!r}")
+            raise InputError("modal_damping", f"must be a damping ratio in [0, 1), got {self.modal_damping!r}")
         if not isinstance(self.planform, Planform):
-            raise ValueError("planform: must be a Planform")
+            raise InputError("planform", "must be a Planform")
         if not isinstance(self.structure, PlateStructure | BeamStructure):
-            raise ValueError("structure: must be a PlateStructure or BeamStructure")
+            raise InputError("structure", "must be a PlateStructure or BeamStructure")
         if self.baseline is not None and type(self.baseline) is not type(self.structure):
-            raise ValueError("baseline: must be the same kind of structure as structure")
+            raise InputError("baseline", "must be the same kind of structure as structure")
         object.__setattr__(self, "design_variables", tuple(self.design_variables))
         names = [v.name for v in self.design_variables]
         if len(set(names)) != len(names):
-            raise ValueError(f"design_variables: duplicate names in {names}")
+            raise InputError("design_variables", f"duplicate names in {names}")
         for v in self.design_variables:
             if not isinstance(v, DesignVariable):
-                raise ValueError("design_variables: every entry must be a DesignVariable")
+                raise InputError("design_variables", "every entry must be a DesignVariable")
             try:
                 current = _get_path(self.structure, v.target)
             except AttributeError:
-                raise ValueError(
-                    f"design_variable {v.name}.target: {v.target!r} is not a field of the structure "
+                raise InputError(
+                    f"design_variables.{v.name}.target", f"{v.target!r} is not a field of the structure "
                     "(give the parametric structure with its beam / lumped mass present)"
                 ) from None
             if isinstance(current, bool) or not isinstance(current, int | float):
-                raise ValueError(f"design_variable {v.name}.target: {v.target!r} is not a numeric field")
+                raise InputError(f"design_variables.{v.name}.target", f"{v.target!r} is not a numeric field")
         if isinstance(self.structure, BeamStructure):
             s = self.structure
             chord = float(self.planform.root_chord)
             e = (s.cg_chord_fraction - s.ea_chord_fraction) * chord
             if s.mass_per_length * e * e >= s.inertia_ea_per_length:
-                raise ValueError("structure.inertia_ea_per_length: must exceed mass_per_length * (CG offset)^2")
+                raise InputError("structure.inertia_ea_per_length", "must exceed mass_per_length * (CG offset)^2")
 
     @property
     def has_baseline(self) -> bool:
@@ -308,31 +293,32 @@ class WingDefinition:
         dvs = self.design_variables
         if design is None or (isinstance(design, Mapping | Sequence | np.ndarray) and len(design) == 0):
             if dvs:
-                raise ValueError(f"design: values required for {', '.join(v.name for v in dvs)}")
+                raise InputError("design", f"values required for {', '.join(v.name for v in dvs)}")
             return np.zeros(0)
         if isinstance(design, Mapping):
             unknown = [k for k in design if k not in {v.name for v in dvs}]
             if unknown:
-                raise ValueError(f"design: unknown variable(s) {unknown}; known: {[v.name for v in dvs]}")
+                raise InputError("design", f"unknown variable(s) {unknown}; known: {[v.name for v in dvs]}")
             missing = [v.name for v in dvs if v.name not in design]
             if missing:
-                raise ValueError(f"design: missing variable(s) {missing}")
+                raise InputError("design", f"missing variable(s) {missing}")
             raw = [design[v.name] for v in dvs]
         else:
             raw = list(np.asarray(design, dtype=object).ravel()) if isinstance(design, np.ndarray) else list(design)
             if len(raw) != len(dvs):
-                raise ValueError(f"design: expected {len(dvs)} values ({[v.name for v in dvs]}), got {len(raw)}")
+                raise InputError("design", f"expected {len(dvs)} values ({[v.name for v in dvs]}), got {len(raw)}")
         out = np.empty(len(dvs))
         for i, (v, x) in enumerate(zip(dvs, raw, strict=True)):
             try:
                 xf = float(x)
             except (TypeError, ValueError):
-                raise ValueError(f"{v.name}: must be a number, got {x!r}") from None
+                raise InputError(f"design.{v.name}", f"must be a number, got {x!r}") from None
             if isinstance(x, bool) or not math.isfinite(xf):
-                raise ValueError(f"{v.name}: must be a finite number, got {x!r}")
+                raise InputError(f"design.{v.name}", f"must be a finite number, got {x!r}")
             tol = 1e-12 * max(1.0, abs(v.lower), abs(v.upper))
             if not (v.lower - tol <= xf <= v.upper + tol):
-                raise ValueError(f"{v.name}: {xf:g} is outside its bounds [{v.lower:g}, {v.upper:g}] {v.unit}".rstrip())
+                raise InputError(f"design.{v.name}",
+                                 f"{xf:g} is outside its bounds [{v.lower:g}, {v.upper:g}] {v.unit}".rstrip())
             out[i] = min(max(xf, v.lower), v.upper)
         return out
 
@@ -344,7 +330,7 @@ class WingDefinition:
             if self.baseline is not None:
                 return self.baseline
             if self.design_variables:
-                raise ValueError(f"design: wing {self.name!r} has no baseline; give values for its design variables")
+                raise InputError("design", f"wing {self.name!r} has no baseline; give values for its design variables")
             return self.structure
         x = self.design_vector(design)
         s = self.structure
@@ -368,18 +354,18 @@ class WingDefinition:
     def from_dict(cls, d: Mapping[str, Any]) -> WingDefinition:
         """Inverse of :meth:`to_dict`; raises ValueError naming a missing or bad field."""
         if not isinstance(d, Mapping):
-            raise ValueError("wing: must be a JSON object")
+            raise InputError("wing", "must be a JSON object")
         for key in ("name", "planform", "structure"):
             if key not in d:
-                raise ValueError(f"{key}: missing")
+                raise InputError(key, "missing")
         try:
             planform = Planform(**dict(d["planform"]))
         except TypeError as exc:
-            raise ValueError(f"planform: {exc}") from None
+            raise InputError("planform", str(exc)) from None
         try:
             dvs = tuple(DesignVariable(**dict(v)) for v in d.get("design_variables", []) or [])
         except TypeError as exc:
-            raise ValueError(f"design_variables: {exc}") from None
+            raise InputError("design_variables", str(exc)) from None
         base = d.get("baseline")
         return cls(
             name=d["name"],
@@ -402,13 +388,13 @@ def _material_from(d: Mapping[str, Any], where: str) -> PlateMaterial:
     try:
         return PlateMaterial(**dict(d))
     except TypeError as exc:
-        raise ValueError(f"{where}: {exc}") from None
+        raise InputError(where, str(exc)) from None
 
 
 def _structure_from_dict(d: Mapping[str, Any], where: str) -> PlateStructure | BeamStructure:
     """Inverse of :func:`_structure_to_dict`."""
     if not isinstance(d, Mapping):
-        raise ValueError(f"{where}: must be an object")
+        raise InputError(where, "must be an object")
     d = dict(d)
     kind = d.pop("kind", None)
     try:
@@ -424,8 +410,8 @@ def _structure_from_dict(d: Mapping[str, Any], where: str) -> PlateStructure | B
         if kind == "beam":
             return BeamStructure(**d)
     except (TypeError, KeyError) as exc:
-        raise ValueError(f"{where}: {exc}") from None
-    raise ValueError(f"{where}.kind: must be 'plate' or 'beam', got {kind!r}")
+        raise InputError(where, str(exc)) from None
+    raise InputError(f"{where}.kind", f"must be 'plate' or 'beam', got {kind!r}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -537,4 +523,4 @@ def template(name: str) -> WingDefinition:
     try:
         return TEMPLATES[name]()
     except KeyError:
-        raise ValueError(f"wing: unknown template {name!r}; known: {sorted(TEMPLATES)}") from None
+        raise InputError("wing", f"unknown template {name!r}; known: {sorted(TEMPLATES)}") from None

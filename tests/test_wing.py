@@ -109,7 +109,7 @@ def test_unknown_template_raises():
          "structure.beam.root_position"),
         (lambda: LumpedMass(mass=-1.0, span_fraction=0.5), "structure.lumped_mass.mass"),
         (lambda: BeamStructure(1.0, 1.0, 1.0, 1.0, 0.3, 1.3), "structure.cg_chord_fraction"),
-        (lambda: DesignVariable("x", 1.0, 0.5), "design_variable x.upper: must be > lower"),
+        (lambda: DesignVariable("x", 1.0, 0.5), "design_variables.x.upper: must be > lower"),
     ],
 )
 def test_bad_structure_values_raise_naming_the_field(build, match):
@@ -120,7 +120,7 @@ def test_bad_structure_values_raise_naming_the_field(build, match):
 def test_design_variable_target_must_exist():
     w = template("cropped-delta")
     dv = DesignVariable("y", 0.0, 1.0, target="beam.depth")
-    with pytest.raises(ValueError, match=r"design_variable y.target: 'beam.depth' is not a field"):
+    with pytest.raises(ValueError, match=r"design_variables.y.target: 'beam.depth' is not a field"):
         dataclasses.replace(w, design_variables=(dv,))
 
 

@@ -20,6 +20,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
 
 ProgressFn = Callable[[float, str], None]
@@ -67,16 +68,16 @@ class UnsteadySolver(Protocol):
 def check_mach(mach: float, upper: float = 0.999) -> float:
     """Validate a free-stream Mach number (0 <= M < upper); return it as float."""
     if not (isinstance(mach, int | float | np.floating | np.integer) and math.isfinite(mach)):
-        raise ValueError(f"mach: must be a finite number, got {mach!r}")
+        raise InputError("mach", f"must be a finite number, got {mach!r}")
     if not 0.0 <= float(mach) < upper:
-        raise ValueError(f"mach: must be in [0, {upper}) for this solver, got {mach}")
+        raise InputError("mach", f"must be in [0, {upper}) for this solver, got {mach}")
     return float(mach)
 
 
 def check_dt_star(dt_star: float) -> float:
     """Validate the nondimensional time step (t* = t V / c_ref); return it as float."""
     if not (isinstance(dt_star, int | float | np.floating | np.integer) and math.isfinite(dt_star) and dt_star > 0):
-        raise ValueError(f"dt_star: must be a finite number > 0, got {dt_star!r}")
+        raise InputError("dt_star", f"must be a finite number > 0, got {dt_star!r}")
     return float(dt_star)
 
 
@@ -86,9 +87,9 @@ def check_shapes(mesh: StandardMesh, shapes: np.ndarray) -> np.ndarray:
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim != 2 or arr.shape[0] != mesh.n_nodes or arr.shape[1] < 1:
-        raise ValueError(f"shapes: expected shape [{mesh.n_nodes}, m>=1] (one column per shape), got {arr.shape}")
+        raise InputError("shapes", f"expected shape [{mesh.n_nodes}, m>=1] (one column per shape), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError("shapes: must be finite")
+        raise InputError("shapes", "must be finite")
     return arr
 
 
@@ -98,9 +99,9 @@ def check_signals(signals: np.ndarray, m: int) -> np.ndarray:
     if arr.ndim == 1 and m == 1:
         arr = arr[:, None]
     if arr.ndim != 2 or arr.shape[1] != m or arr.shape[0] < 2:
-        raise ValueError(f"signals: expected shape [T>=2, {m}] (one column per shape), got {arr.shape}")
+        raise InputError("signals", f"expected shape [T>=2, {m}] (one column per shape), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError("signals: must be finite")
+        raise InputError("signals", "must be finite")
     return arr
 
 

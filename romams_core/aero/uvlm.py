@@ -41,6 +41,7 @@ from romams_core.aero.protocol import (
     check_signals,
     mach_warnings,
 )
+from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh, standard_mesh
 from romams_core.statespace import DiscreteSS
 
@@ -191,7 +192,7 @@ def build_uvlm(
     mach = check_mach(mach)
     dt_star = check_dt_star(dt_star)
     if not (math.isfinite(wake_chords) and wake_chords > 0):
-        raise ValueError(f"wake_chords: must be a finite number > 0, got {wake_chords!r}")
+        raise InputError("wake_chords", f"must be a finite number > 0, got {wake_chords!r}")
     beta = math.sqrt(1.0 - mach**2)
     nc, ns, c = mesh.n_chord, mesh.n_span, mesh.c_ref
     n_wake = max(1, int(math.ceil(wake_chords / dt_star - 1e-9)))
@@ -344,7 +345,7 @@ def panel_forces_frequency(
     dG/dt* is always the BDF2 of the march. Uses the wake's z^-(r+1) delay, one K x K solve per k.
     """
     if derivative not in ("exact", "bdf2"):
-        raise ValueError(f"derivative: must be 'exact' or 'bdf2', got {derivative!r}")
+        raise InputError("derivative", f"must be 'exact' or 'bdf2', got {derivative!r}")
     k_values = np.atleast_1d(np.asarray(k_values, dtype=float))
     w_d, w_v = system.wash_matrices(shapes)
     dt = system.dt_star
@@ -366,7 +367,7 @@ def refine_mesh(mesh: StandardMesh, factor: int) -> tuple[StandardMesh, sp.csr_m
     without changing the shapes it sees.
     """
     if not (isinstance(factor, int | np.integer) and 1 <= factor <= 8):
-        raise ValueError(f"refine: must be an integer in [1, 8], got {factor!r}")
+        raise InputError("refine", f"must be an integer in [1, 8], got {factor!r}")
     nc, ns = mesh.n_chord, mesh.n_span
     fine = standard_mesh(dataclasses.replace(mesh.planform, n_chord=nc * factor, n_span=ns * factor))
     if factor == 1:
@@ -461,7 +462,7 @@ def check_shapes_system(system: UvlmSystem, shapes: np.ndarray) -> np.ndarray:
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim != 2 or arr.shape[0] != system.interp_colloc.shape[1]:
-        raise ValueError(f"shapes: expected shape [{system.interp_colloc.shape[1]}, m], got {arr.shape}")
+        raise InputError("shapes", f"expected shape [{system.interp_colloc.shape[1]}, m], got {arr.shape}")
     return arr
 
 
@@ -518,7 +519,7 @@ class UvlmSolver:
         batched = sig.ndim == 3
         if batched:
             if sig.shape[1] != shapes.shape[1] or sig.shape[0] < 2 or not np.all(np.isfinite(sig)):
-                raise ValueError(f"signals: expected finite [T>=2, {shapes.shape[1]}, B], got {sig.shape}")
+                raise InputError("signals", f"expected finite [T>=2, {shapes.shape[1]}, B], got {sig.shape}")
         else:
             sig = check_signals(sig, shapes.shape[1])[:, :, None]
         if progress is not None:

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from romams_core.errors import InputError
+
 _GP, _GW = np.polynomial.legendre.leggauss(4)
 _GP = 0.5 * (_GP + 1.0)
 _GW = 0.5 * _GW
@@ -46,7 +48,7 @@ def beam_element_matrices(
     d = xy[:, 1] - xy[:, 0]
     length = np.linalg.norm(d, axis=1)
     if np.any(length <= 0.0):
-        raise ValueError("beam elements: zero length")
+        raise InputError("structure.beam_elements", "zero length")
     t = d / length[:, None]
     n = np.column_stack([t[:, 1], -t[:, 0]])
     ei, gj, m, s, i_phi = (np.broadcast_to(np.asarray(v, dtype=float), (ne,)) for v in (ei, gj, m, s, i_phi))

@@ -22,6 +22,8 @@ import math
 
 import numpy as np
 
+from romams_core.errors import InputError
+
 # Cubic Bernstein multi-indices (a1, a2, a3): vertices, side points, centroid.
 _ALPHA = np.array(
     [[3, 0, 0], [0, 3, 0], [0, 0, 3], [2, 1, 0], [1, 2, 0], [0, 2, 1], [0, 1, 2], [1, 0, 2], [2, 0, 1], [1, 1, 1]]
@@ -47,7 +49,7 @@ def triangle_geometry(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     c = np.stack([x[:, 2] - x[:, 1], x[:, 0] - x[:, 2], x[:, 1] - x[:, 0]], axis=1)
     two_a = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
     if np.any(two_a <= 0.0):
-        raise ValueError("elements: triangles must be counter-clockwise with positive area")
+        raise InputError("elements", "triangles must be counter-clockwise with positive area")
     return 0.5 * two_a, b / two_a[:, None], c / two_a[:, None]
 
 

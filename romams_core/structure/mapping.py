@@ -6,6 +6,7 @@ import numpy as np
 from scipy.interpolate import CloughTocher2DInterpolator, LinearNDInterpolator, NearestNDInterpolator
 from scipy.spatial import Delaunay
 
+from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
 
 
@@ -22,11 +23,11 @@ def map_to_mesh(points_xy: np.ndarray, values: np.ndarray, mesh: StandardMesh, s
     if squeeze:
         vals = vals[:, None]
     if pts.ndim != 2 or pts.shape[1] != 2:
-        raise ValueError(f"points_xy: expected shape [P, 2], got {pts.shape}")
+        raise InputError("points_xy", f"expected shape [P, 2], got {pts.shape}")
     if vals.shape[0] != pts.shape[0]:
-        raise ValueError(f"values: expected {pts.shape[0]} rows (one per point), got {vals.shape[0]}")
+        raise InputError("values", f"expected {pts.shape[0]} rows (one per point), got {vals.shape[0]}")
     if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(vals))):
-        raise ValueError("values: points and values must be finite")
+        raise InputError("values", "points and values must be finite")
     target = np.column_stack([mesh.x, mesh.y])
     tri = Delaunay(pts)
     interp = CloughTocher2DInterpolator(tri, vals) if smooth else LinearNDInterpolator(tri, vals)

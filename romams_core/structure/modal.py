@@ -19,6 +19,7 @@ from scipy.interpolate import PchipInterpolator
 from scipy.linalg import cho_solve_banded, cholesky_banded, eigh
 from scipy.sparse.linalg import LinearOperator, eigsh
 
+from romams_core.errors import InputError
 from romams_core.mesh import Planform, StandardMesh, standard_mesh
 from romams_core.structure.beam import beam_element_matrices, rectangle_torsion_constant
 from romams_core.structure.dkt import (
@@ -103,7 +104,7 @@ def thickness_form(name: str, xi: np.ndarray) -> np.ndarray:
         return naca4_thickness_form(xi)
     if name == "naca65a004":
         return np.asarray(_NACA65A004(np.clip(np.asarray(xi, dtype=float), 0.0, 1.0)), dtype=float)
-    raise ValueError(f"structure.thickness_form: no airfoil form {name!r}")
+    raise InputError("structure.thickness_form", f"no airfoil form {name!r}")
 
 
 def plate_thickness(planform: Planform, s: PlateStructure, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -260,7 +261,7 @@ def solve_modes(model: FEModel, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     kff = model.K[f][:, f]
     mff = model.M[f][:, f]
     if not 1 <= n_modes < f.size:
-        raise ValueError(f"n_modes: must be in [1, {f.size - 1}], got {n_modes}")
+        raise InputError("n_modes", f"must be in [1, {f.size - 1}], got {n_modes}")
     if f.size <= 60:
         lam, vec = eigh(kff.toarray(), mff.toarray(), subset_by_index=(0, n_modes - 1))
     else:
@@ -282,7 +283,7 @@ def modal_analysis(
 ) -> ModalResult:
     """Lowest n_modes modes of a wing design (None: baseline), mapped to the standard mesh (default: the wing's)."""
     if isinstance(n_modes, bool) or not isinstance(n_modes, int | np.integer) or n_modes < 1:
-        raise ValueError(f"n_modes: must be a positive integer, got {n_modes!r}")
+        raise InputError("n_modes", f"must be a positive integer, got {n_modes!r}")
     mesh = mesh if mesh is not None else standard_mesh(wing.planform)
     model = build_model(wing, design, mesh)
     omega, phi = solve_modes(model, int(n_modes))

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from romams_core.errors import InputError
 from romams_core.mesh import Planform
 
 
@@ -57,7 +58,7 @@ def plate_mesh(
 ) -> PlateMesh:
     """Structured DKT mesh of the planform with n_chord x n_span cells, optionally along a beam line."""
     if n_chord < 2 or n_span < 1:
-        raise ValueError(f"fe mesh: need n_chord >= 2 and n_span >= 1, got {n_chord} x {n_span}")
+        raise InputError("structure.fe_mesh", f"need n_chord >= 2 and n_span >= 1, got {n_chord} x {n_span}")
     eta = np.linspace(0.0, 1.0, n_span + 1)
     if beam_line is None:
         xi = np.broadcast_to(np.linspace(0.0, 1.0, n_chord + 1), (n_span + 1, n_chord + 1)).copy()
