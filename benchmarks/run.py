@@ -260,8 +260,8 @@ def http_latency(data_dir: Path, samples: int, n_designs: int, seed: int = 21, *
         store = open_store(Settings(data_dir=data_dir, **{k: v for k, v in settings.items() if k != "broker_url"}))
         wing_id, wing = store.wings.find(wid)
         bid = resolve_basis_id(store, wing_id)
-        models = load_models(wing_id, wing, bid, trained_rom_ids(store, wing_id, bid), store.load_basis,
-                             store.load_rom, lambda _: standard_mesh(wing.planform))
+        models = load_models(wing_id, wing, bid, trained_rom_ids(store, wing_id, bid), store.bases.load,
+                             store.roms.load, lambda _: standard_mesh(wing.planform))
         designs = random_designs(wing, 2 * n_designs + 2, seed=seed).tolist()
         cache: dict[Any, Any] = {}
 

@@ -48,6 +48,10 @@ class StructureEvaluation:
     message: str
 
 
+#: The sweep used at Mach 0 whatever was asked: a constant speed M a or a Mach-matched altitude is undefined there.
+INCOMPRESSIBLE_SWEEP = "constant-density"
+
+
 def _rom_parts(rom: Any, mach: float) -> tuple[Any, float]:
     """(DiscreteSS in basis coordinates, c_ref m) of a ROM entry (TrainedRom-like or a (ss, c_ref) pair)."""
     if hasattr(rom, "ss") and hasattr(rom, "c_ref"):
@@ -74,7 +78,8 @@ def evaluate_structure(
     """Evaluate a structure (``modal``: .omega [k] rad/s, .shapes [N, k], .mass_kg) with ROMs {mach: rom}.
 
     ``basis_shapes`` [N, m] are the basis the ROMs were trained on; ``flutter_options`` go to
-    flutter_analysis (e.g. altitude_ref_m, q_max, n_points). Returns a StructureEvaluation.
+    flutter_analysis (e.g. altitude_ref_m, q_max, n_points). Mach 0 (incompressible) always uses the
+    constant-density sweep and is left out of the flight envelope. Returns a StructureEvaluation.
     """
     if not roms:
         raise InputError("roms", "need at least one Mach number")
@@ -96,11 +101,14 @@ def evaluate_structure(
     for mach in machs:
         ss, c_ref = _rom_parts(by_mach[mach], mach)
         modal_ss = to_modal(ss, proj.gamma)
-        if sweep == "matched":
-            opts.setdefault("altitude_range_m", altitude_range_m)
-        results.append(flutter_analysis(omega, modal_ss, c_ref, mach, sweep=sweep, coupling=coupling, zeta=zeta,
-                                        **opts))
-    env = envelope_from_results(results, margin, altitude_range_m)
+        sweep_m = INCOMPRESSIBLE_SWEEP if mach == 0.0 else sweep  # no constant speed or Mach-matched flight at M 0
+        kw = dict(opts, altitude_range_m=opts.get("altitude_range_m", altitude_range_m)) if sweep_m == "matched" \
+            else opts
+        results.append(flutter_analysis(omega, modal_ss, c_ref, mach, sweep=sweep_m, coupling=coupling, zeta=zeta,
+                                        **kw))
+    flying = [r for r in results if r.mach > 0.0]  # Mach 0 (incompressible) has no flight envelope
+    env = envelope_from_results(flying, margin, altitude_range_m) if flying else Envelope(
+        np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), [], float(margin), np.asarray(altitude_range_m, float))
     comp = compare_envelopes(env, benchmark) if benchmark is not None else None
     sdoff = any(r.sdoff for r in results)
     ok = proj.ok and not sdoff and (comp is None or comp.envelope_ok)

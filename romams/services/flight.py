@@ -3,8 +3,9 @@
 Default: the constant-speed sweep at the ISA reference altitude of 10 km (V = M a_ref fixed, density
 swept: the ROM-AMS paper's eq. 14, Mach-consistent for a Mach-specific ROM), Tustin coupling, the wing's
 own modal damping. Mach 0 is incompressible: a constant speed is undefined there, so Mach 0 always uses
-the constant-density sweep at rho_ref, with a speed range given (``v_max_m_s``) or defaulted from the
-structure by the core. Every result states the sweep, the reference altitude and density it used.
+the constant-density sweep at rho_ref (``romams_core.evaluate.INCOMPRESSIBLE_SWEEP``), with a speed range
+given (``v_max_m_s``) or defaulted from the structure by the core. Every result states the sweep, the
+reference altitude and the density it used.
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ from romams_core.flutter import COUPLINGS, DEFAULT_ALTITUDE_REF_M, SWEEPS
 
 DEFAULT_SWEEP = "constant-speed"
 DEFAULT_COUPLING = "tustin"
-INCOMPRESSIBLE_SWEEP = "constant-density"
 ALTITUDE_LIMITS_M = (0.0, 20_000.0)
 
 
@@ -61,10 +61,6 @@ class FlightCondition:
         object.__setattr__(self, "altitude_ref_m", alt)
         for name in ("rho_ref", "v_max_m_s", "q_max_pa"):
             object.__setattr__(self, name, _positive_or_none(name, getattr(self, name)))
-
-    def sweep_at(self, mach: float) -> str:
-        """The sweep used at ``mach``: the chosen one, but constant-density at Mach 0 (incompressible)."""
-        return INCOMPRESSIBLE_SWEEP if float(mach) == 0.0 else self.sweep
 
     def flutter_options(self) -> dict[str, Any]:
         """Keyword arguments of romams_core.flutter.flutter_analysis (besides sweep, coupling and zeta)."""

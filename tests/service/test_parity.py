@@ -66,7 +66,7 @@ def test_cli_api_and_in_process_give_identical_results(tmp_path, monkeypatch):
     wid, wing = resolve_wing(store, "cropped-delta")
     bid = resolve_basis_id(store, wid)
     assert bid == from_cli["basis_id"]
-    models = load_models(wid, wing, bid, trained_rom_ids(store, wid, bid), store.load_basis, store.load_rom,
+    models = load_models(wid, wing, bid, trained_rom_ids(store, wid, bid), store.bases.load, store.roms.load,
                          lambda _: standard_mesh(wing.planform))
     in_process, _ = evaluate_structure_summary(models, design=DESIGN)
 
