@@ -40,16 +40,20 @@ def invalid(field: str, reason: str) -> Problem:
 
 
 def from_value_error(exc: ValueError, prefix: str = "") -> Problem:
-    """422 from a core ValueError ('<field>: <reason>'), the field prefixed with the request path."""
-    text = str(exc)
-    head, sep, _ = text.partition(":")
-    field = head.strip() if sep and " " not in head.strip() else None
+    """422 from a core error, the field nested under the request path ``prefix``.
+
+    A typed ``InputError`` carries its field; a plain ValueError is reported under ``prefix`` as a whole.
+    """
+    field = getattr(exc, "field", None)
+    reason = getattr(exc, "reason", None) or str(exc)
     if field and prefix:
-        if field in ("design", "modes", "definition", "template", "wing", "file", "bdf", "json", "npz", "nastran"):
-            field = prefix
+        if field.split(".")[0].split("[")[0] in ("design", "modes", "definition", "template", "wing", "file", "bdf",
+                                                 "json", "npz", "nastran"):
+            field = prefix + field[len(field.split(".")[0].split("[")[0]):]
         elif not field.startswith(prefix):
             field = f"{prefix}.{field}"
-    return Problem(422, f"{prefix + ': ' if prefix and not field else ''}{text}", field or prefix or None)
+    field = field or prefix or None
+    return Problem(422, f"{field}: {reason}" if field else reason, field)
 
 
 def problem_response(status: int, detail: str, *, title: str | None = None, field: str | None = None,

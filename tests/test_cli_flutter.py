@@ -30,10 +30,11 @@ def test_flutter_json_contract_trains_once_and_reuses_the_store(data_dir):
     for r in out["results"]:
         for key in ("mach", "v_flutter_m_s", "omega_flutter_rad_s", "q_flutter_pa", "sdoff", "flutter_mode"):
             assert key in r
-        assert r["flutter_found"] and r["sweep"] == "constant-density"
-        assert 50.0 < r["v_flutter_m_s"] < 600.0 and r["q_flutter_pa"] > 0
-        # constant density at ISA 10 km: q = 0.5 rho V^2
-        assert r["q_flutter_pa"] == pytest.approx(0.5 * 0.41351 * r["v_flutter_m_s"] ** 2, rel=1e-3)
+        # the default flight condition: constant speed V = M a at ISA 10 km, density swept
+        assert r["flutter_found"] and r["sweep"] == "constant-speed" and r["altitude_ref_m"] == 10_000.0
+        assert r["v_flutter_m_s"] == r["v_true_m_s"] == pytest.approx(r["mach"] * 299.53, rel=1e-4)
+        assert 50.0 < r["v_eas_m_s"] < 600.0 and r["q_flutter_pa"] > 0
+        assert r["q_flutter_pa"] == pytest.approx(0.5 * 1.225 * r["v_eas_m_s"] ** 2, rel=1e-4)
     assert len(list((data_dir / "plots").glob("vg_M*.png"))) == 2
     st = open_store()
     wing_id = st.wings.find("cropped-delta")[0]
@@ -44,7 +45,7 @@ def test_flutter_json_contract_trains_once_and_reuses_the_store(data_dir):
     assert "training" not in again.stderr and "building" not in again.stderr
     first, second = json.loads(again.stdout)["results"][0], out["results"][1]
     assert second["flutter_mode"] == first["flutter_mode"]
-    assert second["v_flutter_m_s"] == pytest.approx(first["v_flutter_m_s"], rel=1e-9)
+    assert second["q_flutter_pa"] == pytest.approx(first["q_flutter_pa"], rel=1e-9)
 
 
 def test_flutter_rom_pms_and_matched_point(data_dir):
@@ -106,3 +107,14 @@ def test_demo_quick_writes_summary_with_contract_keys(data_dir):
                 "rom_ams_4530_structures_min", "rom_pms_4530_structures_h"):
         assert key in s["timings"]
     assert (out / "envelope.png").stat().st_size > 10_000
+
+
+def test_issue_case_m079_is_mode_2_at_210_m_s_not_an_aero_lag_root(data_dir):
+    # the reported case: baseline, M 0.79, constant density at ISA 10 km, the 5-shape MAC-0.98 basis, the default
+    # 12 sweep points. The branch tracker used to jump onto a lag root and report 581 m/s on mode 3.
+    res = _run("--wing", "cropped-delta", "--baseline", "--mach", "0.79", "--sweep", "constant-density",
+               "--altitude", "10000", "--samples", "25", "--mac", "0.98", "--json")
+    assert res.exit_code == 0, res.output
+    (r,) = json.loads(res.stdout)["results"]
+    assert r["flutter_mode"] == 2 and r["sweep"] == "constant-density"
+    assert r["v_true_m_s"] == pytest.approx(210.1, rel=0.01)  # the fine-sweep value of the issue

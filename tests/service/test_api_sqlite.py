@@ -98,7 +98,8 @@ def _direct(svc, design):
     store = open_store(svc.settings)
     with store.unit_of_work() as uow:
         _, wing = uow.wings.find(svc.wing_id)
-        bid, basis = uow.bases.latest(svc.wing_id)
+        bid = uow.wings.active_basis(svc.wing_id)
+        basis = uow.bases.load(bid)
         roms = {r["mach"]: uow.roms.load(r["id"]) for r in uow.roms.of_wing(svc.wing_id, bid)}
     modal = modal_analysis(wing, design=wing.design_vector(design), n_modes=basis.n_modes)
     return evaluate_structure(modal, basis.shapes, roms, mac_threshold=basis.mac_threshold,

@@ -108,6 +108,9 @@ def test_training_errors_once_a_basis_exists(client, tmp_path):
     snaps = np.linalg.qr(np.random.default_rng(0).standard_normal((187, 6)))[0]
     bid = store.bases.save(wid, build_basis(snaps, n_modes=3), {"samples": 2, "modes": 3})
     assert open_store(client.app.state.service.settings).bases.latest(wid)[0] == bid
+    # stored directly, not by a basis job: not active until activated
+    problem(client.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.8}), 409, "basis_id", "no basis")
+    assert client.put(f"/api/v1/wings/{wid}/active-basis", json={"basis_id": bid}).status_code == 200
     before = _counts(client)
     roms = f"/api/v1/wings/{wid}/roms"
     problem(client.post(roms, json={"mach": 1.2}), 422, "mach", "subsonic")

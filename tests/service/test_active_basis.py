@@ -1,0 +1,100 @@
+"""The basis an evaluation uses is explicit: a wing's active basis, never switched by a new basis; a request
+may name another. Bad flight-condition and basis input gets a 422/404 problem and changes nothing."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import pytest
+from fastapi.testclient import TestClient
+from typer.testing import CliRunner
+
+from api.app import create_app
+from romams.settings import Settings, get_settings
+
+from .conftest import WorkerProcess, service_env, wait_job
+
+DESIGN = {"x1": 0.3, "x2": 0.4, "x3": 0.7, "x4": 0.05, "x5": 1.0, "x6": 1.0, "x7": 0.8}
+FAST = {"heartbeat_s": 0.5, "job_stale_s": 8.0, "sync_timeout_s": 120}
+
+
+@pytest.fixture(scope="module")
+def svc(tmp_path_factory):
+    data = tmp_path_factory.mktemp("romams-active")
+    worker = WorkerProcess(service_env(data, **FAST), data / "worker.log")
+    try:
+        with TestClient(create_app(Settings(data_dir=data, **FAST))) as client:
+            wid = client.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
+            job = client.post(f"/api/v1/wings/{wid}/basis", json={"samples": 6, "modes": 3, "seed": 1}).json()
+            first = wait_job(client, job["job_id"])
+            assert first["status"] == "succeeded", worker.log_tail()
+            ids = client.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.87}).json()
+            assert wait_job(client, ids["job_id"])["status"] == "succeeded", worker.log_tail()
+            yield SimpleNamespace(client=client, wid=wid, data=data, worker=worker,
+                                  basis_id=first["result"]["basis_id"])
+    finally:
+        worker.stop()
+
+
+def _evaluate(svc, **extra):
+    r = svc.client.post(f"/api/v1/wings/{svc.wid}/flutter", json={"design": DESIGN, "store": False, **extra})
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def test_first_basis_is_active_and_a_new_basis_changes_nothing(svc, monkeypatch):
+    c = svc.client
+    wing = c.get(f"/api/v1/wings/{svc.wid}").json()
+    assert wing["active_basis_id"] == svc.basis_id
+    before = _evaluate(svc)
+    assert before["basis_id"] == svc.basis_id
+    # a second basis through the API, and a third by `romams basis` on the same store while the service runs
+    job = c.post(f"/api/v1/wings/{svc.wid}/basis", json={"samples": 7, "modes": 3, "seed": 2}).json()
+    second = wait_job(c, job["job_id"])
+    assert second["status"] == "succeeded" and second["result"]["active"] is False
+    monkeypatch.setenv("ROMAMS_DATA_DIR", str(svc.data))
+    get_settings.cache_clear()
+    res = CliRunner().invoke(__import__("romams.cli", fromlist=["app"]).app,
+                             ["basis", "--wing", str(svc.wid), "--samples", "6", "--modes", "3", "--seed", "3",
+                              "--holdout", "0", "--json"])
+    get_settings.cache_clear()
+    assert res.exit_code == 0, res.output
+    assert '"active_basis_id": %d' % svc.basis_id in res.stdout
+    assert c.get(f"/api/v1/wings/{svc.wid}").json()["active_basis_id"] == svc.basis_id
+    after = _evaluate(svc)
+    assert after["basis_id"] == svc.basis_id
+    for a, b in zip(before["results"], after["results"], strict=True):
+        assert a["q_flutter_pa"] == b["q_flutter_pa"] and a["flutter_mode"] == b["flutter_mode"]
+    # the new basis is used only when asked: per request (nothing trained on it yet: 409) or by activation
+    new_id = second["result"]["basis_id"]
+    r = c.post(f"/api/v1/wings/{svc.wid}/flutter", json={"design": DESIGN, "basis_id": new_id})
+    assert r.status_code == 409 and r.json()["field"] == "machs"
+    assert c.put(f"/api/v1/wings/{svc.wid}/active-basis", json={"basis_id": new_id}).json()["active_basis_id"] == new_id
+    assert c.post(f"/api/v1/wings/{svc.wid}/flutter", json={"design": DESIGN}).status_code == 409
+    job = c.post(f"/api/v1/wings/{svc.wid}/roms", json={"mach": 0.87}).json()  # trains on the active basis
+    assert wait_job(c, job["job_id"])["status"] == "succeeded"
+    assert _evaluate(svc)["basis_id"] == new_id
+    assert _evaluate(svc, basis_id=svc.basis_id)["results"][0]["q_flutter_pa"] == before["results"][0]["q_flutter_pa"]
+    c.put(f"/api/v1/wings/{svc.wid}/active-basis", json={"basis_id": svc.basis_id})
+
+
+def test_bad_flight_condition_and_basis_input(svc):
+    c = svc.client
+    url = f"/api/v1/wings/{svc.wid}/flutter"
+    for body, field in (({"sweep": "sideways"}, "sweep"), ({"altitude_ref_m": 30000}, "altitude_ref_m"),
+                        ({"rho_ref": -1}, "rho_ref"), ({"v_max_m_s": float("nan")}, "v_max_m_s"),
+                        ({"basis_id": 999}, "basis_id")):
+        r = c.post(url, json={"design": DESIGN, **body}) if body.get("v_max_m_s") is None else c.post(
+            url, content=b'{"design": {"x1": 0.3}, "v_max_m_s": NaN}', headers={"content-type": "application/json"})
+        assert r.status_code in (404, 422), (body, r.text)
+        assert r.headers["content-type"].startswith("application/problem+json")
+        assert r.json()["field"].startswith(field) or (field == "v_max_m_s" and r.status_code == 422), r.json()
+    # a basis that is not the wing's cannot be activated; the active basis stays
+    r = c.put(f"/api/v1/wings/{svc.wid}/active-basis", json={"basis_id": 12345})
+    assert r.status_code == 404 and r.json()["field"] == "basis_id"
+    assert c.get(f"/api/v1/wings/{svc.wid}").json()["active_basis_id"] == svc.basis_id
+    # a design out of bounds: the core's typed error keeps its field through the service
+    bad = dict(DESIGN, x3=7.0)
+    r = c.post(url, json={"design": bad})
+    assert r.status_code == 422 and r.json()["field"].startswith("design"), r.json()
+    assert "x3" in r.json()["detail"]
