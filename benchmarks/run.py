@@ -255,9 +255,10 @@ def http_latency(data_dir: Path, samples: int, n_designs: int, seed: int = 21, *
     from romams_core.basis import random_designs
     from romams_core.mesh import standard_mesh
 
+    db_settings = Settings(data_dir=data_dir, **{k: v for k, v in settings.items() if k != "broker_url"})
+    store = open_store(db_settings, migrate=True)  # a server database is migrated once, as `alembic upgrade head`
     with LiveService(data_dir, concurrency=1, **settings) as svc, RomamsClient(svc.url, timeout=600) as client:
         wid, setup = _prepare(client, samples, MACHS)
-        store = open_store(Settings(data_dir=data_dir, **{k: v for k, v in settings.items() if k != "broker_url"}))
         wing_id, wing = store.wings.find(wid)
         bid = resolve_basis_id(store, wing_id)
         models = load_models(wing_id, wing, bid, trained_rom_ids(store, wing_id, bid), store.bases.load,
