@@ -26,6 +26,12 @@ FORMAT = 1
 
 _REGISTRY: dict[str, type] = {}
 
+#: Stored type names of classes that have moved since rows were written: old 'module:QualName' -> new one.
+#: Stored rows keep loading after a refactoring (the flutter module became a package in issue 9).
+ALIASES: dict[str, str] = {
+    "romams_core.flutter:FlutterResult": "romams_core.flutter.result:FlutterResult",
+}
+
 
 def register(cls: type) -> type:
     """Allow ``cls`` (defined outside this project's packages) to be rebuilt by :func:`loads`; usable as decorator."""
@@ -44,6 +50,7 @@ def resolve(name: str, types: Mapping[str, type] | None = None) -> type:
         return types[name]
     if name in _REGISTRY:
         return _REGISTRY[name]
+    name = ALIASES.get(name, name)
     module, _, qual = name.partition(":")
     if module.split(".")[0] not in ALLOWED_PREFIXES:
         raise ValueError(f"serialized type {name!r}: module not allowed")

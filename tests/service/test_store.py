@@ -251,3 +251,32 @@ def test_worker_lru_cache_is_bounded():
         c.get_or_load(key, lambda k=key: loads.append(k) or k.upper())
     # a, b loaded; a hit; c evicts b; b reloaded evicts a; a reloaded
     assert loads == ["a", "b", "c", "b", "a"] and len(c) == 2 and c.hits == 1 and c.misses == 5
+
+
+def test_rows_written_before_the_flutter_package_split_still_load():
+    """A FlutterResult stored under its old class path ('romams_core.flutter:FlutterResult', before the module
+    became a package, without the fields added since) loads as today's class with their defaults."""
+    import json
+
+    from romams import serialize
+    from romams_core.flutter import FlutterResult
+
+    r = FlutterResult(**{**serialize_fields_of_old_row(), "v": np.linspace(1.0, 2.0, 3)})
+    meta, blob = serialize.dumps(r)
+    text = json.dumps(meta).replace("romams_core.flutter.result:FlutterResult", "romams_core.flutter:FlutterResult")
+    old = json.loads(text)
+    assert old["tree"]["__dataclass__"] == "romams_core.flutter:FlutterResult"
+    for key in ("v_eas_m_s", "altitude_ref_m", "v_eas", "lag_root_flagged"):
+        old["tree"]["fields"].pop(key)
+    back = serialize.loads(old, blob)
+    assert type(back) is FlutterResult and back.q_flutter_pa == 1234.5
+    assert back.v_eas_m_s is None and back.altitude_ref_m is None and back.v_eas.size == 0
+    np.testing.assert_array_equal(back.v, r.v)
+
+
+def serialize_fields_of_old_row() -> dict:
+    """Scalar fields a FlutterResult row of the first release carried."""
+    return dict(mach=0.87, sweep="constant-speed", coupling="tustin", flutter_found=True, v_flutter_m_s=200.0,
+                omega_flutter_rad_s=500.0, q_flutter_pa=1234.5, rho_flutter=0.3, altitude_m=None, k_flutter=0.4,
+                v_true_m_s=260.0, flutter_mode=2, sdoff=False, energy_share=0.6, frequency_separation=0.1,
+                single_mode_unstable=False, message="m", rho_ref=0.41, a_ref=299.5, c_ref=0.37, dt_star=0.1)
