@@ -3,6 +3,7 @@ may name another. Bad flight-condition and basis input gets a 422/404 problem an
 
 from __future__ import annotations
 
+import json
 from types import SimpleNamespace
 
 import pytest
@@ -10,6 +11,7 @@ from fastapi.testclient import TestClient
 from typer.testing import CliRunner
 
 from api.app import create_app
+from romams.cli import app as cli
 from romams.settings import Settings, get_settings
 
 from .conftest import WorkerProcess, service_env, wait_job
@@ -54,12 +56,11 @@ def test_first_basis_is_active_and_a_new_basis_changes_nothing(svc, monkeypatch)
     assert second["status"] == "succeeded" and second["result"]["active"] is False
     monkeypatch.setenv("ROMAMS_DATA_DIR", str(svc.data))
     get_settings.cache_clear()
-    res = CliRunner().invoke(__import__("romams.cli", fromlist=["app"]).app,
-                             ["basis", "--wing", str(svc.wid), "--samples", "6", "--modes", "3", "--seed", "3",
+    res = CliRunner().invoke(cli, ["basis", "--wing", str(svc.wid), "--samples", "6", "--modes", "3", "--seed", "3",
                               "--holdout", "0", "--json"])
     get_settings.cache_clear()
     assert res.exit_code == 0, res.output
-    assert '"active_basis_id": %d' % svc.basis_id in res.stdout
+    assert json.loads(res.stdout)["active_basis_id"] == svc.basis_id
     assert c.get(f"/api/v1/wings/{svc.wid}").json()["active_basis_id"] == svc.basis_id
     after = _evaluate(svc)
     assert after["basis_id"] == svc.basis_id
