@@ -55,7 +55,10 @@ def serve(
     children: list[subprocess.Popen] = []
     if worker:
         for queues, procs, name in plan:
-            children.append(subprocess.Popen(worker_command(queues, procs, loglevel, name), env=dict(os.environ),
+            env = dict(os.environ)
+            if queues == "evaluation":  # short synchronous evaluations: the embedded broker is polled faster here
+                env["ROMAMS_BROKER_POLL_S"] = str(min(settings.broker_poll_s, settings.evaluation_poll_s))
+            children.append(subprocess.Popen(worker_command(queues, procs, loglevel, name), env=env,
                                              preexec_fn=_die_with_parent))
             typer.echo(f"embedded worker pid {children[-1].pid}: queues {queues}, {procs} process(es), "
                        f"broker {settings.broker.split('://')[0]}", err=True)
