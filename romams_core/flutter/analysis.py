@@ -69,7 +69,7 @@ def flutter_analysis(
     p_chk_min = max(sw.p_start + sw.scale_at(sw.p_start) / 12.0, p_f) if path.first_unstable == 1 else p_f
     point = _flutter_point(tracker, p_f, branch, st_f, omega_path, float(sdoff_share), float(sdoff_q_factor),
                            p_chk_min)
-    if p_f == br.lo_p:
+    if path.first_unstable == 1 and p_f == br.lo_p:
         point["message"] = "structural branch already unstable at the start of the sweep; " + point["message"]
     point["message"] += _lag_note(path)
     head["modal_share"] = point.pop("modal_share")

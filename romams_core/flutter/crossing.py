@@ -42,20 +42,22 @@ def make_bracket(tracker: Tracker, path: Path) -> Bracket:
     """Bracket of the first crossing: the path's first unstable point and the point before it.
 
     The candidates are the branches unstable at that point (none was unstable before). A crossing before the
-    first point after q = 0 is bracketed from just after q = 0 (a branch of zero structural damping has
-    Re(s) = 0 exactly at q = 0), at an offset fixed by the sweep's natural range (not by the grid).
+    first point after q = 0 is bracketed from the start state just after q = 0 (``Sweep.start_state_point``;
+    a branch of zero structural damping has Re(s) = 0 exactly at q = 0); every branch with Re(s) > 0 there is
+    a candidate too, unstable from the start of the sweep and reported there.
     """
     i = path.first_unstable
     assert i is not None and i >= 1
     hi_p, hi_state = path.p[i], path.states[i]
-    cands = [int(j) for j in np.nonzero(path.g(i) > G_UNSTABLE)[0]]
+    unstable = path.g(i) > G_UNSTABLE
     if i == 1:
         sw = tracker.sweep
-        lo_p = sw.p_start + min(1e-6 * sw.scale_at(sw.p_start), 1e-3 * (hi_p - sw.p_start))
+        lo_p = min(sw.start_state_point(), 0.5 * (sw.p_start + hi_p))
         lo_state = tracker.step(tracker.start(), sw.p_start, lo_p, tracker.eig(np.array([lo_p])))
+        unstable |= lo_state.lam.real > 0
     else:
         lo_p, lo_state = path.p[i - 1], path.states[i - 1]
-    return Bracket(lo_p, lo_state, hi_p, hi_state, cands)
+    return Bracket(lo_p, lo_state, hi_p, hi_state, [int(j) for j in np.nonzero(unstable)[0]])
 
 
 def _re_eig(tracker: Tracker, br: Bracket) -> Callable[[float, int], float]:
@@ -140,10 +142,9 @@ def refine_crossing(tracker: Tracker, br: Bracket, rtol: float) -> tuple[float, 
         p_js, eig_f = _refine(br, _re_eig(tracker, br), rtol), None
     else:
         p_js, eig_f = res
-    p_f, branch = math.inf, -1
-    for jb, pj in zip(br.cands, p_js, strict=True):
-        if pj < p_f:
-            p_f, branch = pj, jb
+    # lowest crossing; among branches unstable from the bracket start, the most unstable one there
+    lo = br.lo_state.lam
+    p_f, branch = min(zip(p_js, br.cands, strict=True), key=lambda x: (x[0], -lo[x[1]].real / abs(lo[x[1]])))
     e_f = tracker.eig(np.array([p_f])) if eig_f is None else eig_f
     st_f = tracker.step(br.lo_state, br.lo_p, p_f, e_f)
     return p_f, branch, st_f

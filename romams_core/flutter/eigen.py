@@ -5,12 +5,17 @@ call. Every eigenvalue s (rad/s) comes with
 
 - its structural eigenvector part [xi; xi'/omega], unit norm (``xs`` [n, 2k, nt]), which the branch tracker
   compares by MAC (aero states are excluded: their scaling is arbitrary);
-- its structural content (``content`` [n, nt], 0..1): the share of the structural states in the eigenvalue's
+- its structural content (``content`` [n, nt], 0..1; on the fast path only for eigenvalues near an aero
+  pole, NaN for the others): the share of the structural states in the eigenvalue's
   participation, |P_s| / (|P_s| + |P_a|) with P_s = sum over structural states of w_i v_i (w the left, v the
   right eigenvector, w^H v = 1) and P_a the same over the aero states. Participations are invariant under any
   change of the aero state coordinates, so the measure does not depend on the ROM's realization. A structural
   root has content near 1; an aerodynamic lag root (s ~ (V / c_ref) lam_a, the ROM's own dynamics, moved little
-  by the structure) has content near 0.
+  by the structure) has content near 0;
+- the lag-root mask (``lag`` [n, nt]): content below ``CONTENT_MIN`` AND s within ``LAG_NEAR`` (relative) of an
+  aero pole (V / c_ref) lam_a. The second condition keeps a structural root near s = 0 (a divergence), whose
+  participation is aerodynamic too (P_s = eta^H (2 s + G) xi vanishes with s when G = 0), from being taken
+  for a lag root: the aero poles of a stable ROM lie far from s = 0 at any speed that matters.
 
 Fast path (Tustin, diagonalizable aero matrix): LAPACK eigenvalues only; for each eigenvalue the right and
 left null vectors xi, eta of T(s) = s^2 I + s G + K - q H(s) (one inverse-iteration step each, k x k) give
@@ -32,6 +37,8 @@ import scipy.linalg.lapack
 from .model import Model
 
 _zgesv = scipy.linalg.lapack.zgesv
+CONTENT_MIN = 0.25  # structural content below this (and near an aero pole): an aerodynamic lag root
+LAG_NEAR = 0.25  # |s / vc - lam_a| / |lam_a| below this: near that aero pole
 
 
 @dataclass
@@ -44,12 +51,15 @@ class EigData:
     xs: np.ndarray | None
     content: np.ndarray | None
     period: np.ndarray
+    lag: np.ndarray | None = None  # [n, nt] lag-root mask (None without vectors)
+    x: np.ndarray | None = None  # [n] continuation coordinate of the points (set by the tracker)
 
     def point(self, i: int) -> EigData:
         """The data of sweep point i alone (leading axis of length 1)."""
         sl = slice(i, i + 1)
         return EigData(self.lam[sl], None if self.xs is None else self.xs[sl],
-                       None if self.content is None else self.content[sl], self.period[sl])
+                       None if self.content is None else self.content[sl], self.period[sl],
+                       None if self.lag is None else self.lag[sl], None if self.x is None else self.x[sl])
 
 
 @functools.lru_cache(maxsize=16)
@@ -75,39 +85,49 @@ def _pair_selection(lam: np.ndarray) -> tuple[np.ndarray, bool]:
 
 def struct_vectors(
     m: Model, lam: np.ndarray, v: np.ndarray, q: np.ndarray
-) -> tuple[np.ndarray, np.ndarray] | None:
-    """Normalized structural parts [xi; xi'/omega] [n, 2k, nt] and structural content [n, nt] of the Tustin
-    eigenvalues lam [n, nt] from the null vectors of T(s) (module docstring).
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Normalized structural parts [xi; xi'/omega] [n, 2k, nt], structural content [n, nt] and lag-root mask
+    [n, nt] of the Tustin eigenvalues lam [n, nt] from the null vectors of T(s) (module docstring).
 
     xi is found by one step of inverse iteration from a fixed generic vector: the null direction dominates by
-    sigma_(k-1) / sigma_min, i.e. to rounding, since s is an eigenvalue; likewise eta with T(s)^H. LAPACK lists
-    a complex pair consecutively, positive imaginary part first; the second member takes the conjugate vector.
-    None when ill-defined (non-finite, T exactly singular): the caller then uses the full eigenvectors.
+    sigma_(k-1) / sigma_min, i.e. to rounding, since s is an eigenvalue; likewise eta with T(s)^H. The content
+    (and so eta) is computed only for eigenvalues near an aero pole -- the only ones that can be lag roots --
+    and is NaN for the others. LAPACK lists a complex pair consecutively, positive imaginary part first; the
+    second member takes the conjugate vector. None when ill-defined (non-finite, T exactly singular): the
+    caller then uses the full eigenvectors.
     """
     assert m.lam_a is not None and m.res is not None
     k = m.k
     sel, paired = _pair_selection(lam)
     rows = np.nonzero(sel)[0]
     ss = lam[sel]
+    nm = ss.size
     with np.errstate(all="ignore"):
         vc = (v / m.c_ref)[rows]
-        r = 1.0 / ((ss / vc)[:, None] - m.lam_a)  # vc / (s - vc lam_i) [M, na]
-        t = (m.d.ravel() + r @ m.res) * (-q[rows])[:, None]  # [M, k*k]
-        t[:, :: k + 1] += (ss[:, None] + 2.0 * m.zeta * m.omega) * ss[:, None] + m.omega**2
+        r = 1.0 / ((ss / vc)[:, None] - m.lam_a)  # vc / (s - vc lam_i) = 1 / (s* - lam_i) [M, na]
+        near = np.nonzero((np.abs(r) > m.near_r).any(axis=1))[0]  # |s* - lam_i| < LAG_NEAR |lam_i|: maybe a lag root
+        nn = near.size
+        rr = np.concatenate([r, r[near] ** 2]) @ m.res  # [M + nn, k*k]: H - D, and -dH/ds * vc for the near ones
+        t = (m.d.ravel() + rr[:nm]) * (-q[rows])[:, None]
+        g = 2.0 * m.zeta * m.omega
+        t[:, :: k + 1] += (ss[:, None] + g) * ss[:, None] + m.omega**2
         t3 = t.reshape(-1, k, k)
-        rhs = np.broadcast_to(_rhs(k), (ss.size, k, 1))
+        both = np.concatenate([t3, np.conj(np.swapaxes(t3[near], 1, 2))])  # T, and T^H for the left null vector
         try:
-            y = np.linalg.solve(t3, rhs)[..., 0]
-            z = np.linalg.solve(np.conj(np.swapaxes(t3, 1, 2)), rhs)[..., 0]
+            yz = np.linalg.solve(both, np.broadcast_to(_rhs(k), (nm + nn, k, 1)))[..., 0]
         except np.linalg.LinAlgError:
             return None
+        y = yz[:nm]
         x = np.concatenate([y, (ss[:, None] / m.omega) * y], axis=1)
         x /= np.linalg.norm(x, axis=1, keepdims=True)
-        ps = np.abs(np.einsum("mi,mi->m", z.conj(), (2.0 * ss[:, None] + 2.0 * m.zeta * m.omega) * y))
-        dta = ((r * r) @ m.res).reshape(-1, k, k) * (q[rows] / vc)[:, None, None]  # -q dH/ds
-        pa = np.abs(np.einsum("mi,mi->m", z.conj(), np.einsum("mij,mj->mi", dta, y)))
-        cont = ps / (ps + pa)
-    if not (np.isfinite(x).all() and np.isfinite(cont).all()):
+        cont = np.full(nm, np.nan)
+        if nn:
+            zc, yn = yz[nm:].conj(), y[near]
+            ps = np.abs(np.sum(zc * (2.0 * ss[near][:, None] + g) * yn, axis=1))
+            dta = rr[nm:].reshape(-1, k, k) * (q[rows[near]] / vc[near])[:, None, None]  # -q dH/ds
+            pa = np.abs((zc[:, None, :] @ (dta @ yn[:, :, None]))[:, 0, 0])
+            cont[near] = ps / (ps + pa)
+    if not (np.isfinite(x).all() and np.isfinite(cont[near]).all()):
         return None
     out = np.empty(lam.shape + (2 * k,), complex)
     out[sel] = x
@@ -117,7 +137,7 @@ def struct_vectors(
         ip, jp = np.nonzero(~sel)
         out[ip, jp] = out[ip, jp - 1].conj()
         content[ip, jp] = content[ip, jp - 1]
-    return np.swapaxes(out, 1, 2), content
+    return np.swapaxes(out, 1, 2), content, content < CONTENT_MIN  # NaN (not near a pole) compares False
 
 
 def _full_vectors(vec: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -193,19 +213,42 @@ def _zoh(m: Model, v: np.ndarray, q: np.ndarray, vectors: bool) -> EigData:
     return EigData(lam, xs, content, 2.0 * np.pi / dt)
 
 
+def lag_mask(m: Model, lam: np.ndarray, v: np.ndarray, content: np.ndarray) -> np.ndarray:
+    """Lag roots among eigenvalues lam [n, nt] at speeds v [n]: low structural content near an aero pole."""
+    out = content < CONTENT_MIN
+    if not out.any() or m.poles.size == 0:
+        return out
+    rows, cols = np.nonzero(out)
+    sv = lam[rows, cols] / (v[rows] / m.c_ref)  # s in t*
+    with np.errstate(all="ignore"):
+        d = np.min(np.abs(sv[:, None] - m.poles[None, :]) / np.abs(m.poles[None, :]), axis=1)
+    out[rows, cols] = d < LAG_NEAR
+    return out
+
+
 def eig_batch(m: Model, v: np.ndarray, q: np.ndarray, vectors: bool = True) -> EigData:
     """Eigen-data of the coupled system at speeds v [n] (m/s) and dynamic pressures q [n] (Pa)."""
     if m.coupling != "tustin":
-        return _zoh(m, v, q, vectors)
+        e = _zoh(m, v, q, vectors)
+    elif not vectors:
+        lam = np.linalg.eigvals(_tustin_matrices(m, v, q)).astype(complex)
+        return EigData(lam, None, None, np.full(v.size, np.inf))
+    else:
+        e = _tustin(m, v, q)
+    if e.content is not None and e.lag is None:
+        e.lag = lag_mask(m, e.lam, v, e.content)
+    return e
+
+
+def _tustin(m: Model, v: np.ndarray, q: np.ndarray) -> EigData:
+    """Tustin eigen-data with vectors: null vectors of T(s) on the fast path, else LAPACK eigenvectors."""
     ac = _tustin_matrices(m, v, q)
     per = np.full(v.size, np.inf)
-    if not vectors:
-        return EigData(np.linalg.eigvals(ac).astype(complex), None, None, per)
     if m.lam_a is not None:
         lam = np.linalg.eigvals(ac).astype(complex)
         sv = struct_vectors(m, lam, v, q)
         if sv is not None:
-            return EigData(lam, sv[0], sv[1], per)
+            return EigData(lam, sv[0], sv[1], per, sv[2])
     lam, vec = np.linalg.eig(ac)
     xs, content = _full_vectors(vec, m.omega)
     return EigData(lam.astype(complex), xs, content, per)

@@ -10,7 +10,7 @@ matrix T(s) = s^2 I + s G + K - q H(s) (``eigen.py``). Zero-order hold: the disc
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -36,6 +36,7 @@ class AeroPrep:
     lam: np.ndarray | None  # eigenvalues of abar [na] (None: not reliably diagonalizable)
     w: np.ndarray | None  # eigenvectors of abar [na, na]
     wi: np.ndarray | None  # inverse of w
+    poles: np.ndarray  # aero poles in t* as continuous eigenvalues (Tustin: of abar; zoh: ln(z) / dt*, z != 0)
 
 
 PREP_CACHE: dict[tuple[Any, ...], AeroPrep] = {}
@@ -50,15 +51,19 @@ def aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> AeroPrep:
     if prep is not None:
         return prep
     na = a.shape[0]
-    rad = float(np.max(np.abs(np.linalg.eigvals(a)))) if na else 0.0
+    z = np.linalg.eigvals(a).astype(complex) if na else np.zeros(0, complex)
+    rad = float(np.max(np.abs(z))) if na else 0.0
     if rad >= 1.0:
         raise InputError("aero.A", f"unstable aerodynamic model (spectral radius {rad:.6f} >= 1)")
     lu = abar = lam = w = wi = None
+    nz = z[np.abs(z) > 1e-10]
+    poles = np.log(nz) / dt_star  # zoh: continuous-time equivalents of the discrete poles (delays excluded)
     if coupling == "tustin":
         if na:
             lu = tustin_lu(a, "aero.A")
             abar = tustin_matrices(a, np.zeros((na, 0)), np.zeros((0, na)), np.zeros((0, 0)), dt_star, lu=lu)[0]
             lam, w = np.linalg.eig(abar)
+            poles = lam.astype(complex)
             if np.all(np.isfinite(w)) and np.linalg.cond(w) < DIAG_COND_MAX:
                 lam, wi = lam.astype(complex), np.linalg.inv(w).astype(complex)
                 w = w.astype(complex)
@@ -67,7 +72,7 @@ def aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> AeroPrep:
         else:
             abar, lam = np.zeros((0, 0)), np.zeros(0, complex)
             w, wi = np.zeros((0, 0), complex), np.zeros((0, 0), complex)
-    prep = AeroPrep(rad, lu, abar, lam, w, wi)
+    prep = AeroPrep(rad, lu, abar, lam, w, wi, poles)
     if len(PREP_CACHE) >= PREP_CACHE_SIZE:
         PREP_CACHE.pop(next(iter(PREP_CACHE)))
     PREP_CACHE[key] = prep
@@ -95,12 +100,29 @@ class Model:
     lam_a: np.ndarray | None = None
     res: np.ndarray | None = None
     base: np.ndarray | None = None  # sweep-independent part of the coupled matrix (Tustin), built on first use
+    poles: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))  # aero poles in t* (continuous)
+
+    @property
+    def min_speed(self) -> float:
+        """Lowest speed (m/s) at which the coupling is meaningful: 0 for Tustin; for the zero-order hold the
+        speed below which the highest structural mode aliases (omega_max dt > pi, dt = dt* c_ref / V)."""
+        if self.coupling == "tustin":
+            return 0.0
+        return float(np.max(self.omega)) * self.dt_star * self.c_ref / np.pi
+
+    @property
+    def near_r(self) -> np.ndarray:
+        """|1 / (s* - lam_i)| above which s* = s c_ref / V is within LAG_NEAR |lam_i| of aero pole i (fast path)."""
+        from .eigen import LAG_NEAR
+
+        assert self.lam_a is not None
+        return 1.0 / (LAG_NEAR * np.abs(self.lam_a))
 
     def submodel(self, j: int) -> Model:
         """The 1-mode model of structural mode j with its own diagonal aero terms."""
         return Model(1, self.na, self.omega[[j]], self.zeta[[j]], self.c_ref, self.dt_star, self.coupling, self.a,
                      self.b[:, [j]], self.c[[j], :], self.d[[j]][:, [j]], self.lam_a,
-                     None if self.res is None else self.res[:, [j * self.k + j]])
+                     None if self.res is None else self.res[:, [j * self.k + j]], None, self.poles)
 
 
 def make_model(om: np.ndarray, zt: np.ndarray, c_ref: float, aero: Any, coupling: str) -> Model:
@@ -114,7 +136,7 @@ def make_model(om: np.ndarray, zt: np.ndarray, c_ref: float, aero: Any, coupling
         a, b, c, d = tustin_matrices(a, b, c, d, dt_star, lu=prep.lu, abar=abar, field="aero.A")
         if prep.lam is not None and prep.w is not None and prep.wi is not None:
             lam_a, res = prep.lam, ((c @ prep.w).T[:, :, None] * (prep.wi @ b)[:, None, :]).reshape(-1, k * k)
-    return Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res)
+    return Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res, None, prep.poles)
 
 
 def tustin_to_continuous(

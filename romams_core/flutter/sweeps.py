@@ -91,6 +91,24 @@ class Sweep:
         """Smallest step of the tracker's refinement at p: ``REFINE_MIN`` of the natural range."""
         return REFINE_MIN * self.scale_at(p)
 
+    def start_points(self) -> np.ndarray:
+        """Fixed points near q = 0 that every search tracks before its first grid point (ascending).
+
+        p_start + 2^-8 ... 2^-3 of the natural range in doubling steps: so the first step from q = 0, which
+        has no history to check it against, is the same whatever the number of grid points, and the steps
+        that follow can be checked against the ones before.
+        """
+        return self.p_start + self.scale_at(self.p_start) * 2.0 ** -np.arange(8.0, 2.0, -1.0)
+
+    def start_state_point(self) -> float:
+        """p_start + 1e-6 of the natural range: the start state of a crossing bracket that begins at q = 0
+        (a branch of zero structural damping has Re(s) = 0 exactly at q = 0)."""
+        return self.p_start + 1e-6 * self.scale_at(self.p_start)
+
+    def x(self, p: np.ndarray, v: np.ndarray, rho: np.ndarray) -> np.ndarray:
+        """Continuation coordinate of the tracker's smoothness checks at p (flight condition v, rho): p itself."""
+        return np.asarray(p, float)
+
     def speed_axis(self, v: np.ndarray, q: np.ndarray) -> np.ndarray:
         """The V-g plot's speed axis (true speed; constant-speed overrides)."""
         return v
@@ -168,6 +186,14 @@ class Matched(Sweep):
 
     def scale_at(self, p: float) -> float:
         return 1.0 if p < 0 else self.scale  # density ramp: p in [-1, 0)
+
+    def start_points(self) -> np.ndarray:
+        # the ramp's grid (-0.75, -0.5, -0.25) does not depend on n: one point makes the second step checkable
+        return np.array([-1.0 + 2.0**-3])
+
+    def x(self, p: np.ndarray, v: np.ndarray, rho: np.ndarray) -> np.ndarray:
+        # q / q(h_top): linear along the ramp and smooth across its end (p itself has a kink there)
+        return rho * v**2 / (self.rho_top * self.v_top**2)
 
     def altitude(self, p: np.ndarray) -> np.ndarray:
         p = np.asarray(p, float)

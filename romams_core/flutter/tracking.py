@@ -8,14 +8,16 @@ eigen-solve, recursively -- when the assignment is not trustworthy:
   (a runner-up candidate nearly as cheap as the assigned one), or a branch continued on a lag root;
 - before the first unstable point only (the part of the sweep that decides the flutter point), also a step
   that smooth continuation does not predict -- an eigenvalue farther than ``SMOOTH_TOL`` (relative) from the
-  linear extrapolation of the branch's last two points -- and a possible hump: the parabola of a branch's
-  damping g through its last three points rising above zero between two stable points.
+  linear extrapolation of the branch's last two points -- and a step where a branch's damping g could reach
+  zero between two stable points: the parabola through its last three values, plus the error of the linear
+  extrapolation of g as the estimate's uncertainty, rises above zero (``_may_cross``). The first steps from
+  q = 0 go through fixed start points (``Sweep.start_points``), the same for every grid.
 
 Before the first unstable point the refinement goes down to a minimum step fixed by the sweep (not by the
 number of coarse points), so the flutter point does not depend on the coarse grid; after it, ambiguous steps
-are split at most twice (they only shape the post-flutter V-g curves). A candidate whose structural content
-(``eigen.py``) is below ``CONTENT_MIN`` is an aerodynamic lag root: it costs ``LAG_PENALTY`` more, so it is
-taken only when no structural candidate is left, and then the result is flagged.
+are split at most twice (they only shape the post-flutter V-g curves). A candidate that ``eigen.lag_mask``
+marks as an aerodynamic lag root (low structural content, next to an aero pole) costs ``LAG_PENALTY`` more,
+so it is taken only when no structural candidate is left, and then the result is flagged.
 """
 
 from __future__ import annotations
@@ -33,12 +35,13 @@ from .sweeps import Sweep
 
 MAC_MIN = 0.8  # assigned MAC below this: ambiguous step
 JUMP_MAX = 1.0  # assigned |s1 - s0| / max(|s0|, omega_j) above this: ambiguous step
-SMOOTH_TOL = 0.1  # |s1 - linear extrapolation| / max(|s0|, omega_j) above this: step not smooth (pre-crossing)
-CONTENT_MIN = 0.25  # structural content below this: an aerodynamic lag root, not a structural branch
+SMOOTH_TOL = 0.3  # |s1 - linear extrapolation| / max(|s0|, omega_j) above this: step not smooth (pre-crossing)
 LAG_PENALTY = 10.0  # extra assignment cost of a lag-root candidate
 POST_CROSSING_DEPTH = 2  # split levels of an ambiguous step after the first unstable point
 MAX_REFINE_POINTS = 400  # refinement budget (eigen-solved points) of one search
 G_UNSTABLE = 1e-9  # g above which a branch counts as unstable
+HUMP_FLOOR = 1e-6  # a damping hump is resolved when its estimate (+ uncertainty) reaches above this g
+HUMP_ERR = 0.5  # uncertainty of the parabola estimate of g, relative to the linear extrapolation error
 
 
 @dataclass
@@ -94,8 +97,8 @@ def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tupl
     """One tracking step: Hungarian assignment of the candidates of one sweep point ``e`` to the branches.
 
     Cost: (1 - MAC of the normalized structural vectors) + weight x eigenvalue distance relative to
-    max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a finite scale) + LAG_PENALTY for a candidate
-    with structural content below CONTENT_MIN. ZOH eigenvalues are unwrapped by the alias period.
+    max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a finite scale) + LAG_PENALTY for a lag-root
+    candidate (``eigen.lag_mask``). ZOH eigenvalues are unwrapped by the alias period.
     """
     assert e.xs is not None
     lam_c, a_c, period = e.lam[0], e.xs[0], float(e.period[0])
@@ -107,7 +110,7 @@ def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tupl
     mac = np.abs(prev.vec.conj().T @ a_c) ** 2
     dist = np.abs(s - prev.lam[:, None]) / np.maximum(np.abs(prev.lam), omega)[:, None]
     cost = (1.0 - mac) + weight * dist
-    lag_c = np.zeros(lam_c.size, bool) if e.content is None else e.content[0] < CONTENT_MIN
+    lag_c = np.zeros(lam_c.size, bool) if e.lag is None else e.lag[0]
     cost[:, lag_c] += LAG_PENALTY
     if not np.isfinite(cost).all():
         cost[~np.isfinite(cost)] = 1e6
@@ -121,27 +124,35 @@ def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tupl
     return Branches(new_lam, a_c[:, cols], prev.lag or lag), check
 
 
-def _hump(p: tuple[float, float, float], g: np.ndarray) -> bool:
-    """True when the parabola through (p_i, g_i) [3, k] of some branch peaks above zero inside (p1, p2)
-    while g is stable at both ends (a crossing that may return to stability between the two points)."""
+def _may_cross(p: tuple[float, float, float], g: np.ndarray) -> bool:
+    """True when some branch's damping could reach zero between p1 and p2 although g is stable at both ends.
+
+    ``g`` [3, k] at (p0, p1, p2). The estimate of g inside (p1, p2) is the parabola through the three points
+    (its vertex when it lies inside), with the error of the linear extrapolation from (p0, p1) to p2 as its
+    uncertainty; a step is refined while that estimate plus its uncertainty reaches above ``HUMP_FLOOR``.
+    The uncertainty falls with the square of the step, so the refinement ends unless a hump is there.
+    """
     p0, p1, p2 = p
-    if not (p0 < p1 < p2) or np.any(g[1:] > G_UNSTABLE):
-        return False
+    if np.any(g[2] > G_UNSTABLE):
+        return False  # the crossing is bracketed by the new point itself
     d01 = (g[1] - g[0]) / (p1 - p0)
     d12 = (g[2] - g[1]) / (p2 - p1)
-    c2 = (d12 - d01) / (p2 - p0)  # leading coefficient
+    err = np.abs(g[2] - (g[1] + d01 * (p2 - p1)))
+    c2 = (d12 - d01) / (p2 - p0)  # leading coefficient of the parabola
     with np.errstate(divide="ignore", invalid="ignore"):
         pv = 0.5 * (p1 + p2) - 0.5 * d12 / c2  # vertex: derivative d12 + c2 (2 p - p1 - p2) = 0
         gv = g[1] + (pv - p1) * (d12 + c2 * (pv - p2))
-    return bool(np.any((c2 < 0) & (pv > p1) & (pv < p2) & (gv > G_UNSTABLE)))
+    top = np.maximum(g[1], g[2])
+    top = np.where((c2 < 0) & (pv > p1) & (pv < p2), np.maximum(top, gv), top)
+    return bool(np.any(top + HUMP_ERR * err > HUMP_FLOOR))
 
 
 def _history(p: list[float], p1: float) -> int | None:
-    """Index of the point that, with the last one, extrapolates to p1: the latest point at least half the step
-    (p1 - p_last) before the last one; None when there is none (no extrapolation beyond twice the history,
-    e.g. right after the matched sweep's density ramp, where the parametrization has a kink)."""
+    """Index of the point that, with the last one, extrapolates to p1: the latest point at least a quarter of
+    the step (p1 - p_last) before the last one; None when there is none (no extrapolation beyond 4 x the
+    history)."""
     p0 = p[-1]
-    h = 0.5 * (p1 - p0)
+    h = 0.25 * (p1 - p0)
     for i in range(len(p) - 2, -1, -1):
         if p0 - p[i] >= h:
             return i
@@ -154,6 +165,7 @@ class Path:
 
     p: list[float]
     states: list[Branches]
+    x: list[float]  # continuation coordinate of every point (Sweep.x)
     coarse: list[int] = field(default_factory=list)
     first_unstable: int | None = None  # index into p of the first point with an unstable branch
     n_refined: int = 0  # eigen-solved refinement points
@@ -181,24 +193,36 @@ class Tracker:
         return initial_branches(self.m.omega, self.m.zeta)
 
     def eig(self, p: np.ndarray, vectors: bool = True) -> EigData:
-        """Eigen-data at the sweep parameters p."""
+        """Eigen-data at the sweep parameters p (with their continuation coordinates)."""
         v, rho = self.sweep.cond(p)
-        return eig_batch(self.m, v, 0.5 * rho * v**2, vectors)
+        e = eig_batch(self.m, v, 0.5 * rho * v**2, vectors)
+        e.x = self.sweep.x(p, v, rho)
+        return e
 
     def step(self, prev: Branches, p0: float, p1: float, e1: EigData, depth: int = 0) -> Branches:
         """Track from p0 (state prev) to p1 (eigen-data e1 of that point); an ambiguous step is split in four
         sub-steps (one batched eigen-solve of the three interior points), at most ``POST_CROSSING_DEPTH`` times."""
-        path = Path([p0], [prev], first_unstable=0)  # careful refinement off
+        path = Path([p0], [prev], [0.0], first_unstable=0)  # careful refinement off (x unused)
         self._advance(path, p1, e1, depth)
         return path.states[-1]
 
     def track(self, grid: np.ndarray) -> Path:
-        """The path over the coarse grid from the in-vacuo poles at p_start, refined where needed."""
-        eg = self.eig(grid)
-        path = Path([self.sweep.p_start], [self.start()])
-        for i in range(grid.size):
-            self._advance(path, float(grid[i]), eg.point(i), 0)
-            path.coarse.append(len(path.p) - 1)
+        """The path over the coarse grid from the in-vacuo poles at p_start, refined where needed.
+
+        The sweep's fixed start points below the first grid point are tracked first (with the zero-order-hold
+        coupling only those above its aliasing speed, ``Model.min_speed``); only the grid points are marked as
+        coarse (reported) points.
+        """
+        start = self.sweep.start_points()
+        start = start[(start < grid[0]) & (self.sweep.cond(start)[0] > self.m.min_speed)]
+        pts = np.concatenate([start, grid])
+        eg = self.eig(pts)
+        p0 = np.array([self.sweep.p_start])
+        path = Path([self.sweep.p_start], [self.start()], [float(self.sweep.x(p0, *self.sweep.cond(p0))[0])])
+        for i in range(pts.size):
+            self._advance(path, float(pts[i]), eg.point(i), 0)
+            if i >= start.size:
+                path.coarse.append(len(path.p) - 1)
         return path
 
     def iter_track(self, grid: np.ndarray) -> Iterator[Branches]:
@@ -210,8 +234,9 @@ class Tracker:
             yield state
             p_prev = float(grid[i])
 
-    def _split(self, path: Path, p1: float, careful: bool, check: StepCheck, new: Branches, depth: int) -> bool:
-        """Whether the step from the path's last point to p1 (assigned state ``new``) must be refined."""
+    def _split(self, path: Path, p1: float, x1: float, careful: bool, check: StepCheck, new: Branches,
+               depth: int) -> bool:
+        """Whether the step from the path's last point to p1 (coordinate x1, state ``new``) must be refined."""
         p0 = path.p[-1]
         if not careful:
             return check.ambiguous and depth < POST_CROSSING_DEPTH
@@ -219,21 +244,25 @@ class Tracker:
             return False
         if check.ambiguous:
             return True
-        i = _history(path.p, p1)
+        i = _history(path.x, x1)
         if i is None:
-            return False
-        pm, sm, s0 = path.p[i], path.states[i].lam, path.states[-1].lam
-        pred = s0 + (s0 - sm) * ((p1 - p0) / (p0 - pm))
+            return len(path.p) > 2  # a step too long for the history to check it: refine (not the first one)
+        xm, x0 = path.x[i], path.x[-1]
+        sm, s0 = path.states[i].lam, path.states[-1].lam
+        pred = s0 + (s0 - sm) * ((x1 - x0) / (x0 - xm))
         if np.max(np.abs(new.lam - pred) / np.maximum(np.abs(s0), self.m.omega)) > SMOOTH_TOL:
             return True
+        if i == 0:
+            return False  # g is not smooth in p at q = 0 (e.g. g ~ V^3 in a constant-density sweep)
         g_new = 2.0 * new.lam.real / np.abs(new.lam)
-        return _hump((pm, p0, p1), np.array([path.g(i), path.g(-1), g_new]))
+        return _may_cross((xm, x0, x1), np.array([path.g(i), path.g(-1), g_new]))
 
     def _advance(self, path: Path, p1: float, e1: EigData, depth: int) -> None:
         """Append the point p1 (eigen-data e1) to the path, refining the step when needed."""
         new, check = assign(path.states[-1], e1, self.weight, self.m.omega)
         careful = path.first_unstable is None
-        if self._split(path, p1, careful, check, new, depth):
+        x1 = 0.0 if e1.x is None else float(e1.x[0])
+        if self._split(path, p1, x1, careful, check, new, depth):
             p0 = path.p[-1]
             ps = p0 + (p1 - p0) * np.array([0.25, 0.5, 0.75])
             em = self.eig(ps)
@@ -243,6 +272,7 @@ class Tracker:
             self._advance(path, p1, e1, depth + 1)
             return
         path.p.append(p1)
+        path.x.append(x1)
         path.states.append(new)
         if careful and np.any(path.g(-1) > G_UNSTABLE):
             path.first_unstable = len(path.p) - 1
