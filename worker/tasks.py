@@ -15,6 +15,7 @@ import numpy as np
 
 from romams.jobs import JobFailed, ProgressFn, send
 from romams.persistence import JobStatus
+from romams.pipeline import own_mode_basis
 from romams.services.models import activate_first_basis
 from worker.celery_app import app
 from worker.context import chunk_outcome, load_basis, load_mesh, load_wing, make_solver, run, settings, store
@@ -34,8 +35,17 @@ def basis_job(job_id: str) -> None:
     def body(job: dict[str, Any], progress: ProgressFn) -> None:
         p = job["params"]
         wing = load_wing(job["wing_id"])
-        designs = sample_designs(wing, int(p["samples"]), seed=int(p["seed"]))
         s = store()
+        if not wing.design_variables:  # a fixed structure (the Goland wing): its own modes are its basis
+            basis = own_mode_basis(wing, int(p["modes"]))
+            with s.unit_of_work() as uow:
+                bid = uow.bases.save(job["wing_id"], basis, p, job_id=job_id)
+                active = activate_first_basis(uow, int(job["wing_id"]), bid)
+            s.jobs.finish(job_id, JobStatus.SUCCEEDED, message="done", result={
+                "basis_id": bid, "active": active, "n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac),
+                "capped": False, "own_modes": True})
+            return
+        designs = sample_designs(wing, int(p["samples"]), seed=int(p["seed"]))
         with s.unit_of_work() as uow:  # the chunk rows are committed together, before any message is sent
             children = uow.jobs.children(job_id)
             if not children:

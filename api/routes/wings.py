@@ -82,15 +82,14 @@ def get_wing(wing: str, svc: Service = Depends(service)) -> dict[str, Any]:
 
 @router.post("/wings/{wing}/basis", status_code=202, response_model=JobRef, dependencies=[Depends(require_key)])
 def start_basis(wing: str, body: BasisRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
-    """Start a basis job (LHS samples x modal analyses -> PCA basis)."""
+    """Start a basis job (LHS samples x modal analyses -> PCA basis; a wing without design variables: its own
+    modes)."""
     wid, w = wing_or_404(svc, wing)
     s = svc.settings
     if body.samples > s.max_samples:
         raise invalid("samples", f"must be <= {s.max_samples}, got {body.samples}")
     if body.modes > s.max_modes:
         raise invalid("modes", f"must be <= {s.max_modes}, got {body.modes}")
-    if not getattr(w, "design_variables", ()):
-        raise invalid("wing", "the wing has no design variables to sample")
     params = body.model_dump()
     key = content_hash("basis", wid, params)
     active = svc.store.jobs.find_active(key)

@@ -99,3 +99,21 @@ def test_bad_flight_condition_and_basis_input(svc):
     r = c.post(url, json={"design": bad})
     assert r.status_code == 422 and r.json()["field"].startswith("design"), r.json()
     assert "x3" in r.json()["detail"]
+
+
+def test_mach_0_through_the_api_goland(svc):
+    """Incompressible flutter through the API: a wing without design variables gets its own modes as basis,
+    a ROM at Mach 0, and the constant-density sweep (whatever sweep is asked), outside the flight envelope."""
+    c = svc.client
+    wid = c.post("/api/v1/wings", json={"template": "goland"}).json()["id"]
+    job = wait_job(c, c.post(f"/api/v1/wings/{wid}/basis", json={"modes": 4}).json()["job_id"])
+    assert job["status"] == "succeeded" and job["result"]["own_modes"] and job["result"]["active"], job
+    rom = c.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.0})
+    assert rom.status_code == 202, rom.text
+    assert wait_job(c, rom.json()["job_id"])["status"] == "succeeded", svc.worker.log_tail()
+    r = c.post(f"/api/v1/wings/{wid}/flutter", json={"rho_ref": 1.02, "store": False})
+    assert r.status_code == 200, r.text
+    (m0,) = r.json()["results"]
+    assert m0["mach"] == 0.0 and m0["sweep"] == "constant-density" and m0["flutter_found"]
+    assert m0["v_true_m_s"] == pytest.approx(166.0, rel=0.04) and m0["safe_altitude_m"] is None
+    assert r.json()["flight_condition"]["sweep"] == "constant-speed"  # asked (the default), resolved per Mach
