@@ -6,6 +6,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from sqlalchemy import select
+from sqlalchemy.orm import defer
 
 from romams import serialize
 from romams.persistence.codec import iso, small_summary
@@ -51,7 +52,7 @@ class BasisRepository(Repository):
 
     def of_wing(self, wing_id: int) -> list[dict[str, Any]]:
         """Bases of a wing (newest first): id, params, n_basis, summary (MAC table etc.)."""
-        rows = self._session.scalars(select(BasisRow).where(BasisRow.wing_id == int(wing_id))
-                                     .order_by(BasisRow.id.desc()))
+        rows = self._session.scalars(select(BasisRow).options(defer(BasisRow.meta), defer(BasisRow.blob))
+                                     .where(BasisRow.wing_id == int(wing_id)).order_by(BasisRow.id.desc()))
         return [{"id": r.id, "wing_id": r.wing_id, "params": r.params, "n_basis": r.n_basis, "summary": r.summary,
                  "job_id": r.job_id, "created_at": iso(r.created_at)} for r in rows]

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from sqlalchemy import select
+from sqlalchemy.orm import defer
 
 from romams import serialize
 from romams.persistence.codec import iso, rom_key, small_summary
@@ -52,9 +53,15 @@ class RomRepository(Repository):
         rid = self.find_id(wing_id, basis_id, mach, params)
         return None if rid is None else (rid, self.load(rid))
 
+    def index(self, wing_id: int, basis_id: int) -> list[tuple[int, float]]:
+        """(id, mach) of every ROM trained on a basis of a wing, oldest first (one narrow query)."""
+        rows = self._session.execute(select(RomRow.id, RomRow.mach).where(
+            RomRow.wing_id == int(wing_id), RomRow.basis_id == int(basis_id)).order_by(RomRow.id))
+        return [(int(r.id), float(r.mach)) for r in rows]
+
     def of_wing(self, wing_id: int, basis_id: int | None = None) -> list[dict[str, Any]]:
         """ROMs of a wing (optionally one basis), by Mach: id, basis_id, mach, solver, params, summary."""
-        q = select(RomRow).where(RomRow.wing_id == int(wing_id))
+        q = select(RomRow).options(defer(RomRow.meta), defer(RomRow.blob)).where(RomRow.wing_id == int(wing_id))
         if basis_id is not None:
             q = q.where(RomRow.basis_id == int(basis_id))
         rows = self._session.scalars(q.order_by(RomRow.mach, RomRow.id.desc()))

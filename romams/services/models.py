@@ -33,8 +33,8 @@ def trained_rom_ids(store: Any, wing_id: int, basis_id: int, machs: Sequence[flo
                     field: str = "machs") -> list[list[float]]:
     """[(mach, rom_id)] of the newest ROM of each requested (default: every trained) Mach on the basis."""
     trained: dict[float, int] = {}
-    for r in sorted(store.roms.of_wing(wing_id, basis_id), key=lambda r: r["id"]):  # the newest of each Mach wins
-        trained[round(float(r["mach"]), 6)] = int(r["id"])
+    for rid, mach in store.roms.index(wing_id, basis_id):  # oldest first: the newest of each Mach wins
+        trained[round(mach, 6)] = rid
     if not trained:
         raise Conflict(field, f"no ROM is trained on basis {basis_id}; POST /api/v1/wings/{wing_id}/roms first")
     if machs is None:
