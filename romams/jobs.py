@@ -167,13 +167,12 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
     A failure stores the error text and, as the job's result, the structured error ``{"error": {status,
     field, detail, reason}}`` (typed errors keep their field from the core to the HTTP problem).
     """
-    if count_delivery:
-        ok, _ = store.jobs.start(job_id, max_deliveries)
-        if not ok:
-            return Outcome(None)
-    elif store.jobs.status(job_id) != JobStatus.RUNNING:
-        return Outcome(None)
-    job = store.jobs.get(job_id)
+    with store.unit_of_work() as uow:  # start (or check) and read the row in one transaction
+        if count_delivery:
+            ok, _ = uow.jobs.start(job_id, max_deliveries)
+        else:
+            ok = uow.jobs.status(job_id) == JobStatus.RUNNING
+        job = uow.jobs.get(job_id) if ok else None
     if job is None:
         return Outcome(None)
     try:
