@@ -10,29 +10,17 @@ reference altitude and the density it used.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
-from romams.services.errors import InvalidInput
+from romams.services.errors import InvalidInput, from_input_error
+from romams_core.errors import InputError
 from romams_core.flutter import COUPLINGS, DEFAULT_ALTITUDE_REF_M, SWEEPS
+from romams_core.validation import check_choice, check_number, finite_positive
 
 DEFAULT_SWEEP = "constant-speed"
 DEFAULT_COUPLING = "tustin"
 ALTITUDE_LIMITS_M = (0.0, 20_000.0)
-
-
-def _positive_or_none(name: str, value: Any) -> float | None:
-    """``value`` as a finite float > 0, or None; InvalidInput naming ``name`` otherwise."""
-    if value is None:
-        return None
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InvalidInput(name, f"must be a number, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise InvalidInput(name, f"must be finite and > 0, got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)
@@ -47,20 +35,17 @@ class FlightCondition:
     coupling: str = DEFAULT_COUPLING
 
     def __post_init__(self) -> None:
-        if self.sweep not in SWEEPS:
-            raise InvalidInput("sweep", f"must be one of {list(SWEEPS)}, got {self.sweep!r}")
-        if self.coupling not in COUPLINGS:
-            raise InvalidInput("coupling", f"must be one of {list(COUPLINGS)}, got {self.coupling!r}")
-        try:
-            alt = float(self.altitude_ref_m)
-        except (TypeError, ValueError):
-            raise InvalidInput("altitude_ref_m", f"must be a number, got {self.altitude_ref_m!r}") from None
-        lo, hi = ALTITUDE_LIMITS_M
-        if not (math.isfinite(alt) and lo <= alt <= hi):
-            raise InvalidInput("altitude_ref_m", f"must be within [{lo:g}, {hi:g}] m, got {self.altitude_ref_m!r}")
-        object.__setattr__(self, "altitude_ref_m", alt)
-        for name in ("rho_ref", "v_max_m_s", "q_max_pa"):
-            object.__setattr__(self, name, _positive_or_none(name, getattr(self, name)))
+        try:  # the core's validators; their typed errors become the service's InvalidInput (same field)
+            check_choice("sweep", self.sweep, SWEEPS)
+            check_choice("coupling", self.coupling, COUPLINGS)
+            lo, hi = ALTITUDE_LIMITS_M
+            alt = check_number("altitude_ref_m", self.altitude_ref_m, lo, strict=False, upper=hi, upper_strict=False)
+            object.__setattr__(self, "altitude_ref_m", alt)
+            for name in ("rho_ref", "v_max_m_s", "q_max_pa"):
+                value = getattr(self, name)
+                object.__setattr__(self, name, None if value is None else finite_positive(name, value))
+        except InputError as exc:
+            raise from_input_error(exc) from exc
 
     def flutter_options(self) -> dict[str, Any]:
         """Keyword arguments of romams_core.flutter.flutter_analysis (besides sweep, coupling and zeta)."""
