@@ -5,8 +5,7 @@ call. Every eigenvalue s (rad/s) comes with
 
 - its structural eigenvector part [xi; xi'/omega], unit norm (``xs`` [n, 2k, nt]), which the branch tracker
   compares by MAC (aero states are excluded: their scaling is arbitrary);
-- its structural content (``content`` [n, nt], 0..1; on the fast path only for eigenvalues near an aero
-  pole, NaN for the others): the share of the structural states in the eigenvalue's
+- its structural content (``content`` [n, nt], 0..1): the share of the structural states in the eigenvalue's
   participation, |P_s| / (|P_s| + |P_a|) with P_s = sum over structural states of w_i v_i (w the left, v the
   right eigenvector, w^H v = 1) and P_a the same over the aero states. Participations are invariant under any
   change of the aero state coordinates, so the measure does not depend on the ROM's realization. A structural
@@ -37,7 +36,7 @@ import scipy.linalg.lapack
 from .model import Model
 
 _zgesv = scipy.linalg.lapack.zgesv
-CONTENT_MIN = 0.25  # structural content below this (and near an aero pole): an aerodynamic lag root
+CONTENT_MIN = 0.1  # structural content below this (and near an aero pole): an aerodynamic lag root
 LAG_NEAR = 0.25  # |s / vc - lam_a| / |lam_a| below this: near that aero pole
 
 
@@ -90,11 +89,10 @@ def struct_vectors(
     [n, nt] of the Tustin eigenvalues lam [n, nt] from the null vectors of T(s) (module docstring).
 
     xi is found by one step of inverse iteration from a fixed generic vector: the null direction dominates by
-    sigma_(k-1) / sigma_min, i.e. to rounding, since s is an eigenvalue; likewise eta with T(s)^H. The content
-    (and so eta) is computed only for eigenvalues near an aero pole -- the only ones that can be lag roots --
-    and is NaN for the others. LAPACK lists a complex pair consecutively, positive imaginary part first; the
-    second member takes the conjugate vector. None when ill-defined (non-finite, T exactly singular): the
-    caller then uses the full eigenvectors.
+    sigma_(k-1) / sigma_min, i.e. to rounding, since s is an eigenvalue; likewise eta from the rows (both from one
+    batched inverse of T, which is then dominated by xi eta^H / sigma_min). LAPACK lists
+    a complex pair consecutively, positive imaginary part first; the second member takes the conjugate vector.
+    None when ill-defined (non-finite, T exactly singular): the caller then uses the full eigenvectors.
     """
     assert m.lam_a is not None and m.res is not None
     k = m.k
@@ -105,30 +103,28 @@ def struct_vectors(
     with np.errstate(all="ignore"):
         vc = (v / m.c_ref)[rows]
         r = 1.0 / ((ss / vc)[:, None] - m.lam_a)  # vc / (s - vc lam_i) = 1 / (s* - lam_i) [M, na]
-        near = np.nonzero((np.abs(r) > m.near_r).any(axis=1))[0]  # |s* - lam_i| < LAG_NEAR |lam_i|: maybe a lag root
-        nn = near.size
-        rr = np.concatenate([r, r[near] ** 2]) @ m.res  # [M + nn, k*k]: H - D, and -dH/ds * vc for the near ones
+        near = (np.abs(r) > m.near_r).any(axis=1)  # |s* - lam_i| < LAG_NEAR |lam_i| for some aero pole i
+        rr = np.concatenate([r, r * r]) @ m.res  # [2M, k*k]: H - D, and -vc dH/ds
         t = (m.d.ravel() + rr[:nm]) * (-q[rows])[:, None]
         g = 2.0 * m.zeta * m.omega
         t[:, :: k + 1] += (ss[:, None] + g) * ss[:, None] + m.omega**2
-        t3 = t.reshape(-1, k, k)
-        both = np.concatenate([t3, np.conj(np.swapaxes(t3[near], 1, 2))])  # T, and T^H for the left null vector
         try:
-            yz = np.linalg.solve(both, np.broadcast_to(_rhs(k), (nm + nn, k, 1)))[..., 0]
+            ti = np.linalg.inv(t.reshape(-1, k, k))  # T^-1 ~ xi eta^H / sigma_min: right and left null vectors
         except np.linalg.LinAlgError:
             return None
-        y = yz[:nm]
+        rhs = _rhs(k)
+        y = (ti @ rhs)[..., 0]  # xi (one inverse-iteration step)
+        zc = (rhs.conj().T @ ti)[:, 0, :]  # eta^H
         x = np.concatenate([y, (ss[:, None] / m.omega) * y], axis=1)
         x /= np.linalg.norm(x, axis=1, keepdims=True)
-        cont = np.full(nm, np.nan)
-        if nn:
-            zc, yn = yz[nm:].conj(), y[near]
-            ps = np.abs(np.sum(zc * (2.0 * ss[near][:, None] + g) * yn, axis=1))
-            dta = rr[nm:].reshape(-1, k, k) * (q[rows[near]] / vc[near])[:, None, None]  # -q dH/ds
-            pa = np.abs((zc[:, None, :] @ (dta @ yn[:, :, None]))[:, 0, 0])
-            cont[near] = ps / (ps + pa)
-    if not (np.isfinite(x).all() and np.isfinite(cont[near]).all()):
+        ps = np.abs(np.sum(zc * (2.0 * ss[:, None] + g) * y, axis=1))
+        dta = rr[nm:].reshape(-1, k, k) * (q[rows] / vc)[:, None, None]  # -q dH/ds
+        pa = np.abs((zc[:, None, :] @ (dta @ y[:, :, None]))[:, 0, 0])
+        cont = ps / (ps + pa)
+    if not (np.isfinite(x).all() and np.isfinite(cont).all()):
         return None
+    lagm = np.zeros(lam.shape, bool)
+    lagm[sel] = near & (cont < CONTENT_MIN)
     out = np.empty(lam.shape + (2 * k,), complex)
     out[sel] = x
     content = np.empty(lam.shape)
@@ -137,7 +133,8 @@ def struct_vectors(
         ip, jp = np.nonzero(~sel)
         out[ip, jp] = out[ip, jp - 1].conj()
         content[ip, jp] = content[ip, jp - 1]
-    return np.swapaxes(out, 1, 2), content, content < CONTENT_MIN  # NaN (not near a pole) compares False
+        lagm[ip, jp] = lagm[ip, jp - 1]
+    return np.swapaxes(out, 1, 2), content, lagm
 
 
 def _full_vectors(vec: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -37,6 +37,10 @@ MAC_MIN = 0.8  # assigned MAC below this: ambiguous step
 JUMP_MAX = 1.0  # assigned |s1 - s0| / max(|s0|, omega_j) above this: ambiguous step
 SMOOTH_TOL = 0.3  # |s1 - linear extrapolation| / max(|s0|, omega_j) above this: step not smooth (pre-crossing)
 LAG_PENALTY = 10.0  # extra assignment cost of a lag-root candidate
+W_CONTENT = 2.0  # assignment cost per unit of structural content a candidate has below 0.5
+CONTENT_JUMP = 0.1  # content change of a branch in one step above which the step is refined (pre-crossing)
+VEER_DIST = 0.25  # relative distance within which roots compete by structural content
+CONTENT_AWAY = 0.5  # content continuity only for roots with |s| > this x omega_j (participation degenerates at 0)
 POST_CROSSING_DEPTH = 2  # split levels of an ambiguous step after the first unstable point
 MAX_REFINE_POINTS = 400  # refinement budget (eigen-solved points) of one search
 G_UNSTABLE = 1e-9  # g above which a branch counts as unstable
@@ -51,6 +55,7 @@ class Branches:
     lam: np.ndarray  # [k] complex s
     vec: np.ndarray  # [2k, k] normalized structural vectors [xi; xi'/omega] (columns)
     lag: bool = False  # some branch was continued on a lag-root candidate (no structural one left)
+    content: np.ndarray | None = None  # [k] structural content of the branch roots (None: 1, the in-vacuo poles)
 
 
 @dataclass
@@ -97,8 +102,9 @@ def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tupl
     """One tracking step: Hungarian assignment of the candidates of one sweep point ``e`` to the branches.
 
     Cost: (1 - MAC of the normalized structural vectors) + weight x eigenvalue distance relative to
-    max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a finite scale) + LAG_PENALTY for a lag-root
-    candidate (``eigen.lag_mask``). ZOH eigenvalues are unwrapped by the alias period.
+    max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a finite scale) + W_CONTENT x (0.5 - structural
+    content)+ of the candidate (content counted 0 beyond VEER_DIST, and the term left out near s = 0) +
+    LAG_PENALTY for a lag-root candidate (``eigen.lag_mask``). ZOH eigenvalues are unwrapped by the alias period.
     """
     assert e.xs is not None
     lam_c, a_c, period = e.lam[0], e.xs[0], float(e.period[0])
@@ -112,6 +118,16 @@ def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tupl
     cost = (1.0 - mac) + weight * dist
     lag_c = np.zeros(lam_c.size, bool) if e.lag is None else e.lag[0]
     cost[:, lag_c] += LAG_PENALTY
+    if e.content is not None:
+        # of two close roots (a structural root veering with a lag root) the more structural one; a root farther
+        # than VEER_DIST counts as content 0, so content never draws a branch away from a close continuation; not
+        # near s = 0, where the participation of any root becomes aerodynamic (a divergence is structural); roots
+        # of content above 0.5 pay nothing (a coalescence of two structural branches is left to MAC and distance)
+        away = (np.abs(prev.lam) > CONTENT_AWAY * omega)[:, None] & (np.abs(s) > CONTENT_AWAY * omega[:, None])
+        c = np.where(dist < VEER_DIST, np.nan_to_num(e.content[0], nan=1.0)[None, :], 0.0)
+        term = np.where(away, W_CONTENT * np.maximum(0.5 - c, 0.0), 0.0)  # structural roots (content > 0.5): 0
+        cost += term - term.min(axis=1, keepdims=True)  # per-row shift: the assignment is unchanged by it, and a
+        # branch of low content (strongly aero-coupled) does not get inflated costs, which would fake near-ties
     if not np.isfinite(cost).all():
         cost[~np.isfinite(cost)] = 1e6
     _, cols = linear_sum_assignment(cost)  # row indices come back sorted (k <= number of candidates)
@@ -121,7 +137,8 @@ def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tupl
     lag = bool(lag_c[cols].any())
     check = StepCheck(float(mac[idx, cols].min()), float(dist[idx, cols].max()), _tie_gap(cost, chosen, prev, omega),
                       lag)
-    return Branches(new_lam, a_c[:, cols], prev.lag or lag), check
+    content = None if e.content is None else e.content[0][cols]
+    return Branches(new_lam, a_c[:, cols], prev.lag or lag, content), check
 
 
 def _may_cross(p: tuple[float, float, float], g: np.ndarray) -> bool:
@@ -145,6 +162,16 @@ def _may_cross(p: tuple[float, float, float], g: np.ndarray) -> bool:
     top = np.maximum(g[1], g[2])
     top = np.where((c2 < 0) & (pv > p1) & (pv < p2), np.maximum(top, gv), top)
     return bool(np.any(top + HUMP_ERR * err > HUMP_FLOOR))
+
+
+def _content_jump(prev: Branches, new: Branches, omega: np.ndarray) -> bool:
+    """True when some oscillatory branch's structural content changes by more than CONTENT_JUMP in one step (a
+    structural root and a lag root exchanging their character: refined so that the exchange is located)."""
+    if prev.content is None or new.content is None:
+        return False
+    away = (np.abs(prev.lam) > CONTENT_AWAY * omega) & (np.abs(new.lam) > CONTENT_AWAY * omega)
+    with np.errstate(invalid="ignore"):
+        return bool(np.any(away & (np.abs(new.content - prev.content) > CONTENT_JUMP)))  # NaN: not computed
 
 
 def _history(p: list[float], p1: float) -> int | None:
@@ -242,7 +269,7 @@ class Tracker:
             return check.ambiguous and depth < POST_CROSSING_DEPTH
         if p1 - p0 <= self.sweep.min_step(p0) or path.n_refined >= MAX_REFINE_POINTS:
             return False
-        if check.ambiguous:
+        if check.ambiguous or _content_jump(path.states[-1], new, self.m.omega):
             return True
         i = _history(path.x, x1)
         if i is None:
