@@ -7,6 +7,7 @@ Tools: ARX realization, stability, balanced truncation, basis -> real modal coor
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -289,7 +290,9 @@ def to_modal(ss: DiscreteSS, gamma: np.ndarray) -> DiscreteSS:
 
 def tustin_lu(a: np.ndarray, field: str = "ss.A") -> tuple[np.ndarray, np.ndarray]:
     """LU factors of I + A (scipy.linalg.lu_factor); InputError naming ``field`` when A has a pole at z = -1."""
-    lu = sla.lu_factor(np.eye(a.shape[0]) + a)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sla.LinAlgWarning)  # an exactly singular I + A is refused below
+        lu = sla.lu_factor(np.eye(a.shape[0]) + a)
     if np.min(np.abs(np.diag(lu[0]))) < 1e-12:
         raise InputError(field, "has a pole at z = -1; the Tustin (bilinear) map cannot convert it")
     return lu

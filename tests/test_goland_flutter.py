@@ -11,6 +11,7 @@ import pytest
 from romams.pipeline import own_mode_basis
 from romams_core.aero.uvlm import UvlmSolver
 from romams_core.basis import project
+from romams_core.errors import InputError
 from romams_core.flutter import flutter_analysis
 from romams_core.mesh import standard_mesh
 from romams_core.statespace import to_modal
@@ -62,3 +63,32 @@ def test_goland_rom_equals_direct_identification_on_own_modes(goland):
     r_ams = _flutter(modal, basis, rom)
     assert r_ams.v_flutter_m_s == pytest.approx(r_pms.v_flutter_m_s, rel=2e-3)
     assert r_ams.omega_flutter_rad_s == pytest.approx(r_pms.omega_flutter_rad_s, rel=2e-3)
+
+
+def test_mach_zero_constant_density_with_and_without_v_max(goland):
+    """Mach 0 (incompressible): the constant-density sweep works with v_max given and with v_max=None, where the
+    default is V_max = omega_max c_ref (the highest mode's reduced frequency on c_ref / 2 falls to 0.5): 637 m/s
+    for the Goland wing's 4 modes, 3.8 x its flutter speed. Both find the same flutter point (0.1 %)."""
+    _, modal, basis, rom = goland
+    gamma = project(basis.shapes, modal.shapes).gamma
+    ss = to_modal(rom.ss, gamma)
+    kw = dict(sweep="constant-density", rho_ref=RHO, a_ref=340.3)
+    given = flutter_analysis(modal.omega, ss, rom.c_ref, 0.0, v_max=300.0, **kw)
+    default = flutter_analysis(modal.omega, ss, rom.c_ref, 0.0, **kw)
+    assert given.flutter_found and default.flutter_found and default.flutter_mode == given.flutter_mode == 2
+    assert default.v_flutter_m_s == pytest.approx(given.v_flutter_m_s, rel=1e-3)
+    assert default.v_flutter_m_s == pytest.approx(V_REF, rel=0.04)
+    v_default = float(np.max(modal.omega)) * rom.c_ref
+    assert v_default == pytest.approx(637.0, rel=0.01) and default.v[-1] == pytest.approx(v_default, rel=1e-12)
+    assert default.v_eas_m_s == pytest.approx(np.sqrt(2.0 * default.q_flutter_pa / 1.225), rel=1e-6)
+
+
+@pytest.mark.parametrize("sweep", ["constant-speed", "matched"])
+def test_mach_zero_needs_the_constant_density_sweep(goland, sweep):
+    """V = M a is 0 at Mach 0: the constant-speed and matched sweeps are an InputError naming the sweep."""
+    _, modal, basis, rom = goland
+    ss = to_modal(rom.ss, project(basis.shapes, modal.shapes).gamma)
+    with pytest.raises(InputError, match="constant-density") as exc:
+        flutter_analysis(modal.omega, ss, rom.c_ref, 0.0, sweep=sweep)
+    assert exc.value.field == "sweep" and "mach > 0" in exc.value.reason
+    assert str(exc.value) == f"sweep: {exc.value.reason}"
