@@ -20,6 +20,7 @@ demo: install
 test: install
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
+	$(BIN)/mypy romams_core
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
 lint: install

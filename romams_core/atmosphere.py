@@ -44,7 +44,7 @@ class AtmosphereState:
     pressure: np.ndarray
 
 
-def _check_altitude(h: np.ndarray, clamp: bool, name: str = "altitude_m") -> np.ndarray:
+def _check_altitude(h: float | np.ndarray, clamp: bool, name: str = "altitude_m") -> np.ndarray:
     """Validate/clamp altitudes (m) against the table range of ambiance."""
     h = np.asarray(h, dtype=float)
     if not np.all(np.isfinite(h)):

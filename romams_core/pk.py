@@ -21,9 +21,11 @@ the time-domain results, ``g`` = 2 Re(p) / |p| = 2 gamma / sqrt(1 + gamma^2), th
 the motion is harmonic and p-k is exact (k-method and p-k coincide there); away from it gamma is the usual
 p-k approximation of the damping.
 
-Sweeps as in ``romams_core.flutter``: "constant-density" (V swept at rho_ref), "constant-speed"
-(V = M a_ref, density swept, i.e. q; reported v = sqrt(2 q_f / rho_ref)) and "matched" (altitude swept with
-V = M a(h)). The first zero crossing of gamma on a structural branch is refined with ``scipy.optimize.brentq``.
+Sweeps as in ``romams_core.flutter`` (the same sweep objects, ``romams_core.flutter.sweeps``):
+"constant-density" (V swept at rho_ref), "constant-speed" (V = M a_ref, density swept, i.e. q) and "matched"
+(altitude swept with V = M a(h)). As there, ``v_flutter_m_s`` is the true airspeed at the flutter point and
+``v_eas_m_s`` the equivalent airspeed sqrt(2 q_f / rho_0). The first zero crossing of gamma on a structural
+branch is refined with ``scipy.optimize.brentq``.
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from scipy.optimize import brentq
 from romams_core.atmosphere import isa, isa_table
 from romams_core.errors import InputError
 from romams_core.flutter import SWEEPS, check_flutter_inputs, finite_positive
+from romams_core.flutter.sweeps import eas, make_sweep, resolve_reference
 from romams_core.mesh import StandardMesh
 
 DEFAULT_ALTITUDE_REF_M = 10_000.0
@@ -119,10 +122,12 @@ def uvlm_table(
 class PkResult:
     """p-k flutter point and V-g data at one Mach number (SI units, rad/s).
 
-    ``v`` is the sweep's speed axis (true speed for constant-density / matched, sqrt(2 q / rho_ref) for
-    constant-speed). Per structural branch [nv, k]: ``gamma`` = Re(p) / Im(p) (positive = unstable, inf for
-    a real root), ``g`` = 2 Re(p) / |p| (as flutter.FlutterResult.g), ``omega`` = Im(p) (rad/s), ``k_red`` =
-    omega b / V. Scalars are None when no flutter was found.
+    ``v_flutter_m_s`` is the true airspeed at the flutter point (= ``v_true_m_s``), ``v_eas_m_s`` the equivalent
+    airspeed sqrt(2 q_f / rho_0); ``v`` is the sweep's speed axis (true speed for constant-density / matched,
+    sqrt(2 q / rho_ref) for constant-speed), ``v_eas`` sqrt(2 q / rho_0). Per structural branch [nv, k]:
+    ``gamma`` = Re(p) / Im(p) (positive = unstable, inf for a real root), ``g`` = 2 Re(p) / |p| (as
+    flutter.FlutterResult.g), ``omega`` = Im(p) (rad/s), ``k_red`` = omega b / V. Scalars are None when no
+    flutter was found.
     """
 
     mach: float
@@ -147,6 +152,9 @@ class PkResult:
     gamma: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     omega: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     k_red: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    v_eas_m_s: float | None = None  # equivalent airspeed sqrt(2 q_f / rho_0) at the flutter point
+    altitude_ref_m: float | None = None  # ISA altitude of rho_ref / a_ref (None: both given explicitly)
+    v_eas: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [nv] sqrt(2 q / rho_0)
 
 
 
@@ -212,7 +220,7 @@ class _Pk:
                 p[i] = p_zero.real
                 continue
 
-            def resid(k: float, i: int = i, pb: np.ndarray = pb) -> float:
+            def resid(k: float, i: int = int(i), pb: np.ndarray = pb) -> float:
                 pk_ = self._eig_pick(v, q, np.array([k]), p[i : i + 1], pb)[0]
                 return abs(pk_.imag) * self.b / v - k
 
@@ -266,47 +274,15 @@ def pk_flutter(
         raise InputError("n_points", f"must be an integer in [4, 5000], got {n_points!r}")
     rtol = finite_positive("rtol", rtol)
     h = _aero_fn(aero, n)
-    if rho_ref is None or a_ref is None:
-        st = isa(float(altitude_ref_m))
-        rho_ref = float(st.rho) if rho_ref is None else rho_ref
-        a_ref = float(st.a) if a_ref is None else a_ref
-    rho_ref, a_ref = finite_positive("rho_ref", rho_ref), finite_positive("a_ref", a_ref)
+    rho_ref, a_ref, h_ref = resolve_reference(altitude_ref_m, rho_ref, a_ref)
+    # sweep parameter s -> (V, rho) (the flutter search's sweeps); s = s0 is q = 0, where the branches start at
+    # the in-vacuo poles
+    sw = make_sweep(sweep, mach, om, c_ref, rho_ref, a_ref, v_max, q_max, altitude_range_m)
+    s0, grid = sw.p_start, sw.grid(int(n_points))
 
-    # sweep parameter s -> (V, rho); s = s0 is q = 0, where the branches start at the in-vacuo poles
-    if sweep == "constant-density":
-        if v_max is None and mach <= 0:
-            raise InputError("v_max", "required for a constant-density sweep with mach = 0")
-        s_end = finite_positive("v_max", 3.0 * mach * a_ref if v_max is None else v_max)
-
-        def cond(s: float) -> tuple[float, float]:
-            return s, rho_ref
-
-        s0 = 0.0
-        grid = np.linspace(s_end / n_points, s_end, n_points)
-    elif sweep == "constant-speed":
-        v0 = mach * a_ref
-        s_end = 2.0 * rho_ref * v0**2 if q_max is None else finite_positive("q_max", q_max)
-
-        def cond(s: float) -> tuple[float, float]:
-            return v0, 2.0 * s / v0**2
-
-        s0 = 0.0
-        grid = np.linspace(s_end / n_points, s_end, n_points)
-    else:
-        h_lo, h_hi = (float(x) for x in altitude_range_m)
-        if not (math.isfinite(h_lo) and math.isfinite(h_hi) and h_lo < h_hi):
-            raise InputError("altitude_range_m", f"must be (low, high) with low < high, got {altitude_range_m!r}")
-        isa_table(h_lo)
-        rho_top, a_top, _ = isa_table(h_hi)
-
-        def cond(s: float) -> tuple[float, float]:
-            if s < 0:  # density ramp at the top altitude, q from 0 to q(h_top)
-                return mach * float(a_top), float(rho_top) * (1.0 + s)
-            rho_h, a_h, _ = isa_table(h_hi - s)
-            return mach * float(a_h), float(rho_h)
-
-        s0 = -1.0
-        grid = np.concatenate([np.linspace(-0.75, -0.25, 3), np.linspace(0.0, h_hi - h_lo, n_points)])
+    def cond(s: float) -> tuple[float, float]:
+        v, rho = sw.cond(np.array([s]))
+        return float(v[0]), float(rho[0])
 
     b = 0.5 * c_ref
     pk = _Pk(om, zt, h, b, float(k_tol), int(max_iter))
@@ -319,7 +295,7 @@ def pk_flutter(
     def step(s_a: float, p_a: np.ndarray, p_prev: np.ndarray | None, s_prev: float | None, s_b: float,
              depth: int = 0) -> np.ndarray:
         """Roots at s_b continued from s_a (linear predictor from the point before when known)."""
-        ratio = 0.0 if p_prev is None else (s_b - s_a) / (s_a - s_prev)
+        ratio = 0.0 if p_prev is None or s_prev is None else (s_b - s_a) / (s_a - s_prev)
         guess = p_a + (p_a - p_prev) * ratio if 0.0 < ratio <= 2.0 else p_a  # no long-range extrapolation
         p_b = solve(s_b, guess)
         jump = np.abs(p_b - p_a) / np.maximum(np.abs(p_a), om)
@@ -346,17 +322,18 @@ def pk_flutter(
     rho_g = np.array([x[1] for x in vq])
     q_g = 0.5 * rho_g * v_g**2
     keep = grid >= 0.0
-    v_axis = np.sqrt(2.0 * q_g / rho_ref) if sweep == "constant-speed" else v_g
-    common = dict(
-        rho_ref=rho_ref, a_ref=a_ref, c_ref=c_ref, v=v_axis[keep], q=q_g[keep], rho=rho_g[keep],
+    v_axis = sw.speed_axis(v_g, q_g)
+    common: dict[str, Any] = dict(
+        rho_ref=rho_ref, a_ref=a_ref, c_ref=c_ref, altitude_ref_m=h_ref, v=v_axis[keep], v_eas=eas(q_g)[keep],
+        q=q_g[keep], rho=rho_g[keep],
         g=g_path[keep], gamma=gamma[keep], omega=np.abs(path.imag[keep]),
         k_red=np.abs(path.imag[keep]) * b / v_g[keep, None],
     )
     unstable = path.real > 1e-12 * np.abs(path)
     first = np.where(unstable.any(axis=0), unstable.argmax(axis=0), grid.size)
     i_cross = int(first.min())
-    none = dict(v_flutter_m_s=None, omega_flutter_rad_s=None, q_flutter_pa=None, rho_flutter=None, k_flutter=None,
-                v_true_m_s=None, flutter_mode=None)
+    none: dict[str, Any] = dict(v_flutter_m_s=None, omega_flutter_rad_s=None, q_flutter_pa=None, rho_flutter=None,
+                                k_flutter=None, v_true_m_s=None, v_eas_m_s=None, flutter_mode=None)
     if i_cross >= grid.size:
         return PkResult(mach=mach, sweep=sweep, flutter_found=False, message="no flutter in the sweep range",
                         max_iterations=pk.iterations, **none, **common)
@@ -396,11 +373,11 @@ def pk_flutter(
     omega_f = abs(p_f.imag)
     if omega_f <= 1e-6 * float(om.max()):
         message += "zero-frequency crossing (static divergence); "
-    v_report = math.sqrt(2.0 * q_f / rho_ref) if sweep == "constant-speed" else v_f
-    message += (f"p-k flutter on structural branch {branch + 1} at q = {q_f:.6g} Pa, V = {v_f:.6g} m/s, "
-                f"omega = {omega_f:.6g} rad/s ({sweep})")
+    v_eas_f = float(eas(np.array(q_f)))
+    message += (f"p-k flutter on structural branch {branch + 1} at q = {q_f:.6g} Pa, true airspeed V = {v_f:.6g} "
+                f"m/s (EAS {v_eas_f:.6g} m/s), omega = {omega_f:.6g} rad/s ({sweep})")
     return PkResult(
-        mach=mach, sweep=sweep, flutter_found=True, v_flutter_m_s=v_report, omega_flutter_rad_s=omega_f,
+        mach=mach, sweep=sweep, flutter_found=True, v_flutter_m_s=v_f, v_eas_m_s=v_eas_f, omega_flutter_rad_s=omega_f,
         q_flutter_pa=q_f, rho_flutter=rho_f, k_flutter=omega_f * b / v_f, v_true_m_s=v_f,
         flutter_mode=branch + 1, message=message, max_iterations=pk.iterations, **common,
     )

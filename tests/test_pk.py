@@ -167,9 +167,10 @@ def test_cropped_delta_full_order_pk_matches_rom_pms(cropped_delta):
     assert fom.flutter_mode == pms.flutter_mode
     assert fom.q_flutter_pa == pytest.approx(pms.q_flutter_pa, rel=0.01)
     assert fom.omega_flutter_rad_s == pytest.approx(pms.omega_flutter_rad_s, rel=0.01)
-    # the reported speed is the paper's sqrt(2 q_f / rho_ref), as in flutter_analysis
-    assert fom.v_flutter_m_s == pytest.approx(math.sqrt(2.0 * fom.q_flutter_pa / fom.rho_ref), rel=1e-12)
-    assert fom.v_true_m_s == pytest.approx(mach * fom.a_ref, rel=1e-12)
+    # the reported speed is the true airspeed (M a_ref here), as in flutter_analysis; EAS from q_f and rho_0
+    assert fom.v_flutter_m_s == fom.v_true_m_s == pytest.approx(mach * fom.a_ref, rel=1e-12)
+    assert fom.v_eas_m_s == pytest.approx(math.sqrt(2.0 * fom.q_flutter_pa / 1.225), rel=1e-6)
+    assert fom.v_eas_m_s == pytest.approx(pms.v_eas_m_s, rel=0.006) and fom.altitude_ref_m == 10_000.0
     # matched sweep (altitude with V = M a(h)), automatic k range
     fom_m, tab_m = fom_flutter(mesh, modal.omega, modal.shapes, mach, sweep="matched", zeta=wing.modal_damping)
     pms_m = flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, sweep="matched", zeta=wing.modal_damping)

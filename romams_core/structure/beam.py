@@ -33,11 +33,11 @@ def rectangle_torsion_constant(height: np.ndarray | float, width: np.ndarray | f
 
 def beam_element_matrices(
     xy: np.ndarray,
-    ei: np.ndarray,
-    gj: np.ndarray,
-    m: np.ndarray,
-    s: np.ndarray,
-    i_phi: np.ndarray,
+    ei: np.ndarray | float,
+    gj: np.ndarray | float,
+    m: np.ndarray | float,
+    s: np.ndarray | float,
+    i_phi: np.ndarray | float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Element stiffness and mass [E, 6, 6] in global (w, w_x, w_y) x 2 nodes for beams [E, 2, 2] (m).
 

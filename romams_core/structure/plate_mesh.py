@@ -111,6 +111,7 @@ def locate(mesh: PlateMesh, x: np.ndarray, y: np.ndarray, semispan: float) -> tu
             take = mn > best_min
             best_l = np.where(take[:, None], lam, best_l)
             best_t = np.where(take, t, best_t)
+    assert best_l is not None and best_t is not None  # the loop ran
     lam = np.clip(best_l, 0.0, None)
     return best_t, lam / lam.sum(axis=1, keepdims=True)
 
