@@ -123,9 +123,11 @@ def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tupl
         # than VEER_DIST counts as content 0, so content never draws a branch away from a close continuation; not
         # near s = 0, where the participation of any root becomes aerodynamic (a divergence is structural); roots
         # of content above 0.5 pay nothing (a coalescence of two structural branches is left to MAC and distance)
+        low = W_CONTENT * np.maximum(0.5 - e.content[0], 0.0)  # structural roots (content > 0.5): 0
+        term = np.where(dist < VEER_DIST, low[None, :], 0.5 * W_CONTENT)
         away = (np.abs(prev.lam) > CONTENT_AWAY * omega)[:, None] & (np.abs(s) > CONTENT_AWAY * omega[:, None])
-        c = np.where(dist < VEER_DIST, np.nan_to_num(e.content[0], nan=1.0)[None, :], 0.0)
-        term = np.where(away, W_CONTENT * np.maximum(0.5 - c, 0.0), 0.0)  # structural roots (content > 0.5): 0
+        if not away.all():
+            term = np.where(away, term, 0.0)
         cost += term - term.min(axis=1, keepdims=True)  # per-row shift: the assignment is unchanged by it, and a
         # branch of low content (strongly aero-coupled) does not get inflated costs, which would fake near-ties
     if not np.isfinite(cost).all():
