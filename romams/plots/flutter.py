@@ -42,6 +42,14 @@ def _speed_label(result: Any) -> str:
     return f"speed V (m/s) at rho = {result.rho_ref:.4g} kg/m^3"
 
 
+def _flutter_on_axis(result: Any) -> float:
+    """The flutter point on the plot's speed axis (m/s): the axis is sqrt(2 q / rho_ref) on a constant-speed
+    sweep (the true speed is constant there), the true speed otherwise."""
+    if result.sweep == "constant-speed":
+        return math.sqrt(2.0 * float(result.q_flutter_pa) / float(result.rho_ref))
+    return float(result.v_true_m_s if result.v_true_m_s is not None else result.v_flutter_m_s)
+
+
 def vg_figure(result: Any, title: str | None = None) -> Figure:
     """V-g and V-f figure (two panels) of a FlutterResult-like object, flutter point marked."""
     v = np.asarray(result.v, dtype=float)
@@ -55,8 +63,8 @@ def vg_figure(result: Any, title: str | None = None) -> Figure:
         (line,) = ax_g.plot(v, g[:, j], marker=".", label=f"mode {j + 1}")
         ax_f.plot(v, om[:, j] / (2 * math.pi), marker=".", color=line.get_color())
     ax_g.axhline(0.0, color="k", lw=0.8)
-    if result.flutter_found and result.v_flutter_m_s is not None:
-        vf = float(result.v_flutter_m_s)
+    if result.flutter_found and result.q_flutter_pa is not None:
+        vf = _flutter_on_axis(result)
         ff = float(result.omega_flutter_rad_s) / (2 * math.pi)
         ax_g.plot([vf], [0.0], "r*", ms=12, label=f"flutter (mode {result.flutter_mode})")
         ax_f.plot([vf], [ff], "r*", ms=12)
@@ -71,6 +79,8 @@ def vg_figure(result: Any, title: str | None = None) -> Figure:
     head = title or f"M = {result.mach:g}, {result.sweep} sweep, {result.coupling} coupling"
     if result.flutter_found and result.q_flutter_pa is not None:
         head += f"\nq_f = {result.q_flutter_pa:.5g} Pa, omega_f = {result.omega_flutter_rad_s:.4g} rad/s"
+        if getattr(result, "v_eas_m_s", None) is not None:
+            head += f", V_true = {result.v_true_m_s:.4g} m/s, V_EAS = {result.v_eas_m_s:.4g} m/s"
         if result.sdoff:
             head += "  [SDOFF]"
     else:
