@@ -77,7 +77,8 @@ def submit(store: Store, celery: Any, kind: str, params: dict[str, Any], *, wing
 def wait_result(celery: Any, job_id: str, timeout_s: float, poll_s: float = 0.005) -> dict[str, Any] | None:
     """The outcome dict a task returned through the result backend (None on timeout); nothing polls the jobs table.
 
-    With Redis the reply is pushed (publish/subscribe); the embedded SQLite backend is read every ``poll_s``.
+    With Redis the reply is pushed (publish/subscribe) and expires by itself (``result_expires_s``); the embedded
+    SQLite backend is read every ``poll_s`` and the result deleted once read.
     """
     from celery.exceptions import TimeoutError as CeleryTimeout
 
@@ -86,8 +87,8 @@ def wait_result(celery: Any, job_id: str, timeout_s: float, poll_s: float = 0.00
         out = res.get(timeout=timeout_s, interval=poll_s, propagate=False, disable_sync_subtasks=False)
     except CeleryTimeout:
         return None
-    finally:
-        try:
+    if not str(celery.conf.result_backend).startswith(("redis", "rediss")):
+        try:  # the database backend keeps results until a cleanup task runs: drop this one now
             res.forget()
         except Exception:  # noqa: BLE001 - a backend that cannot forget keeps the result until it expires
             pass
@@ -161,11 +162,14 @@ def progress_callback(store: Store, job_id: str, lo: float = 0.0, hi: float = 1.
 
 
 def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressFn], Any], *, max_deliveries: int,
-            heartbeat_s: float, count_delivery: bool = True, finish: bool = True) -> Outcome:
+            heartbeat_s: float, count_delivery: bool = True, finish: bool = True,
+            reply: Callable[[Outcome], None] | None = None) -> Outcome:
     """Run ``body(job, progress)`` for a job row with guarded start/finish; returns the Outcome.
 
     A failure stores the error text and, as the job's result, the structured error ``{"error": {status,
     field, detail, reason}}`` (typed errors keep their field from the core to the HTTP problem).
+    ``reply(outcome)`` (a synchronous caller waiting on the result backend) is called as soon as the body has
+    succeeded, before the final row update, so the answer does not wait for the bookkeeping.
     """
     with store.unit_of_work() as uow:  # start (or check) and read the row in one transaction
         if count_delivery:
@@ -194,9 +198,15 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
         store.jobs.finish(job_id, JobStatus.FAILED, error=f"{name}: {reason}\n{tb}", message="failed")
         return Outcome(JobStatus.FAILED, error={"status": 500, "field": None, "detail": f"{name}: {reason}",
                                                 "reason": reason})
+    outcome = Outcome(JobStatus.SUCCEEDED, result)
+    if reply is not None:
+        try:
+            reply(outcome)
+        except Exception:  # noqa: BLE001 - the answer also goes out when the task returns
+            pass
     if finish:
         store.jobs.finish(job_id, JobStatus.SUCCEEDED, result=result, message="done")
-    return Outcome(JobStatus.SUCCEEDED, result)
+    return outcome
 
 
 def sweep_stale(store: Store, celery: Any, stale_s: float) -> list[str]:

@@ -27,7 +27,7 @@ class Settings(BaseSettings):
     result_backend_url: str = Field(
         default="", description="Celery result backend of synchronous evaluations; default: the Redis broker, "
         "else db+sqlite:///<data_dir>/results.db")
-    result_expires_s: int = Field(default=3600, ge=60, description="how long a task result is kept by the backend")
+    result_expires_s: int = Field(default=600, ge=60, description="how long a task result is kept by the backend")
     api_keys: Annotated[list[str], NoDecode] = Field(
         default_factory=list, description="bearer keys for mutating endpoints (comma separated); empty = no auth"
     )

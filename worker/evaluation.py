@@ -58,10 +58,14 @@ def batch_key(wing_id: int, params: dict[str, Any], design: Any) -> str:
                         design)
 
 
-@app.task(name="romams.evaluation.flutter", acks_late=True, ignore_result=False,
+@app.task(name="romams.evaluation.flutter", bind=True, acks_late=True, ignore_result=False,
           time_limit=settings.evaluation_time_limit_s)
-def flutter_job(job_id: str) -> dict[str, Any]:
-    """One structure: evaluate, store the evaluation (V-g data); the outcome also goes to the result backend."""
+def flutter_job(self: Any, job_id: str) -> dict[str, Any]:
+    """One structure: evaluate, store the evaluation (V-g data); the outcome goes to the result backend (first,
+    for the waiting API request) and to the job row."""
+
+    def reply(outcome: Outcome) -> None:
+        self.backend.store_result(self.request.id, outcome.as_dict(), "SUCCESS")
 
     def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
         p = job["params"]
@@ -81,7 +85,7 @@ def flutter_job(job_id: str) -> dict[str, Any]:
                 method=p.get("method", "rom-ams"), content_hash=p.get("content_hash"))
         return summary
 
-    return run(job_id, body).as_dict()
+    return run(job_id, body, reply=reply).as_dict()
 
 
 def evaluate_pms(wing_id: int, basis_id: int, rom_ids: list[list[float]], design: list[float] | None,

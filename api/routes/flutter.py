@@ -26,8 +26,9 @@ router = APIRouter(tags=["flutter"])
 def _basis_and_roms(svc: Service, wid: int, basis_id: int | None, machs: list[float] | None,
                     field: str = "machs") -> tuple[int, list[list[float]]]:
     """Basis id (the wing's active one unless the request names one) and [(mach, rom_id)] to evaluate."""
-    bid = resolve_basis_id(svc.store, wid, basis_id)
-    return bid, trained_rom_ids(svc.store, wid, bid, machs, field)
+    with svc.store.unit_of_work() as uow:  # one transaction for both reads
+        bid = resolve_basis_id(uow, wid, basis_id)
+        return bid, trained_rom_ids(uow, wid, bid, machs, field)
 
 
 def _condition(body: FlutterRequest | BatchRequest) -> FlightCondition:
