@@ -293,6 +293,7 @@ def http_latency(data_dir: Path, samples: int, n_designs: int, seed: int = 21, *
     ratios = np.asarray(remote) / np.asarray(local)
     return {"in_process_ms_median": ms_local, "http_ms_median": ms_http, "http_over_inprocess": ms_http / ms_local,
             "per_design_ratio_median": float(np.median(ratios)),
+            "in_process_ms": [round(1e3 * x, 2) for x in local], "http_ms": [round(1e3 * x, 2) for x in remote],
             "http_ms_p90": 1e3 * float(np.percentile(remote, 90)), "n_designs": n_designs, "machs": list(MACHS),
             "n_basis": int(models.basis.n_basis), **setup}
 

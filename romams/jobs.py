@@ -173,10 +173,10 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
     """
     with store.unit_of_work() as uow:  # start (or check) and read the row in one transaction
         if count_delivery:
-            ok, _ = uow.jobs.start(job_id, max_deliveries)
+            job = uow.jobs.claim(job_id, max_deliveries)
         else:
-            ok = uow.jobs.status(job_id) == JobStatus.RUNNING
-        job = uow.jobs.get(job_id) if ok else None
+            job = uow.jobs.get(job_id)
+            job = job if job is not None and job["status"] == JobStatus.RUNNING else None
     if job is None:
         return Outcome(None)
     try:

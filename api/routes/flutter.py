@@ -8,6 +8,7 @@ from typing import Any, Literal
 
 import numpy as np
 from fastapi import APIRouter, Depends, Query, Response
+from fastapi.responses import JSONResponse
 
 from api.deps import Service, require_key, service, wing_or_404
 from api.problems import Problem, from_value_error, invalid
@@ -95,7 +96,7 @@ def _failed(job: dict[str, Any]) -> ServiceError:
              responses={200: {"model": FlutterSummary, "description": "the evaluation (v_flutter_m_s is the true "
                                                                       "airspeed; v_eas_m_s the equivalent one)"},
                         202: {"description": "not finished within sync_timeout_s: {job_id, status}"}})
-def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
+def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = Depends(service)) -> Any:
     """Flutter evaluation of one structure at the trained (or given) Mach numbers; synchronous."""
     wid, w = wing_or_404(svc, wing)
     bid, rom_ids = _basis_and_roms(svc, wid, body.basis_id, body.machs)
@@ -139,7 +140,8 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
         return {"job_id": job_id, "status": JobStatus.QUEUED}
     if out["status"] != JobStatus.SUCCEEDED:
         raise _failed({"id": job_id, "result": {"error": out.get("error")}, "error": out["status"]})
-    return {**out["result"], "job_id": job_id}
+    # the worker's summary is JSON already: send it as is (no second encoding pass over the nested result)
+    return JSONResponse({**out["result"], "job_id": job_id})
 
 
 @router.post("/wings/{wing}/flutter/batch", dependencies=[Depends(require_key)])

@@ -144,6 +144,24 @@ class JobRepository(Repository):
             return False, deliveries
         return True, deliveries
 
+    def claim(self, job_id: str, max_deliveries: int) -> dict[str, Any] | None:
+        """``start`` and read the row in one statement (UPDATE ... RETURNING): the job dict, or None when the job is
+        final, absent or over the redelivery cap (then it is failed with the reason)."""
+        now = utcnow()
+        where = f"{socket.gethostname()}:{os.getpid()}"
+        job = self._session.scalars(
+            update(Job).where(Job.id == job_id, Job.status.in_(_ACTIVE))
+            .values(status=JobStatus.RUNNING.value, deliveries=Job.deliveries + 1, worker=where,
+                    started_at=func.coalesce(Job.started_at, now), updated_at=now)
+            .returning(Job).execution_options(synchronize_session=False)).one_or_none()
+        if job is None:
+            return None
+        if job.deliveries > max_deliveries:
+            self.finish(job_id, JobStatus.FAILED,
+                        error=f"job delivered {job.deliveries} times (cap {max_deliveries}): its worker kept dying")
+            return None
+        return job_dict(job)
+
     def progress(self, job_id: str, fraction: float, message: str = "") -> bool:
         """Progress 0..1 with a message, only while running; False if the job is no longer running."""
         return self.update(job_id, expect=_RUNNING, progress=float(min(max(fraction, 0.0), 1.0)),
