@@ -47,8 +47,9 @@ class Settings(BaseSettings):
     heartbeat_s: float = Field(default=5.0, gt=0, description="how often a running task touches its job row")
     job_stale_s: float = Field(default=60.0, gt=0, description="a running job untouched this long is re-sent")
     broker_poll_s: float = Field(default=0.05, gt=0, description="poll period of the server-less SQLite broker")
-    evaluation_poll_s: float = Field(default=0.01, gt=0, description="poll period of the SQLite broker for the "
-                                     "embedded evaluation worker of `romams serve` (synchronous evaluations)")
+    evaluation_poll_s: float = Field(default=0.02, gt=0, description="poll period of the SQLite broker for the "
+                                     "embedded evaluation worker of `romams serve` (synchronous evaluations; "
+                                     "shorter = faster answers, more idle CPU)")
     broker_visibility_timeout_s: int = Field(default=3600, ge=1, description="Redis: unacked message redelivery")
     worker_concurrency: int = Field(default_factory=lambda: max(1, min(4, os.cpu_count() or 1)), ge=1,
                                     description="processes of a worker (default: CPU cores, at most 4)")
