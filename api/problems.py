@@ -40,20 +40,11 @@ def invalid(field: str, reason: str) -> Problem:
 
 
 def from_value_error(exc: ValueError, prefix: str = "") -> Problem:
-    """422 from a core error, the field nested under the request path ``prefix``.
+    """422 from a core error, the field nested under the request path ``prefix`` (services.errors rule)."""
+    from romams.services.errors import from_input_error
 
-    A typed ``InputError`` carries its field; a plain ValueError is reported under ``prefix`` as a whole.
-    """
-    field = getattr(exc, "field", None)
-    reason = getattr(exc, "reason", None) or str(exc)
-    if field and prefix:
-        if field.split(".")[0].split("[")[0] in ("design", "modes", "definition", "template", "wing", "file", "bdf",
-                                                 "json", "npz", "nastran"):
-            field = prefix + field[len(field.split(".")[0].split("[")[0]):]
-        elif not field.startswith(prefix):
-            field = f"{prefix}.{field}"
-    field = field or prefix or None
-    return Problem(422, f"{field}: {reason}" if field else reason, field)
+    err = from_input_error(exc, prefix or None)
+    return Problem(err.status, err.detail, err.field)
 
 
 def problem_response(status: int, detail: str, *, title: str | None = None, field: str | None = None,

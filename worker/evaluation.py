@@ -11,8 +11,14 @@ from __future__ import annotations
 from typing import Any
 
 from romams.jobs import JobFailed, Outcome, ProgressFn
-from romams.persistence import JobStatus, content_hash
-from romams.services.evaluation import Models, evaluate_structure_summary, pms_summary, structure_modal
+from romams.persistence import JobStatus
+from romams.services.evaluation import (
+    Models,
+    evaluate_structure_summary,
+    evaluation_key,
+    pms_summary,
+    structure_modal,
+)
 from romams.services.flight import FlightCondition
 from romams.services.models import load_models
 from worker.cache import LruCache
@@ -53,9 +59,8 @@ def evaluate(wing_id: int, basis_id: int, rom_ids: list[list[float]], design: li
 
 
 def batch_key(wing_id: int, params: dict[str, Any], design: Any) -> str:
-    """Content hash of one design's evaluation (identical inputs -> identical summary)."""
-    return content_hash("flutter", wing_id, params["basis_id"], params["rom_ids"], params.get("condition") or {},
-                        design)
+    """The evaluation key of one design of a job (romams.services.evaluation.evaluation_key)."""
+    return evaluation_key(wing_id, params["basis_id"], params["rom_ids"], params.get("condition") or {}, design)
 
 
 @app.task(name="romams.evaluation.flutter", bind=True, acks_late=True, ignore_result=False,

@@ -14,9 +14,10 @@ from api.deps import Service, require_key, service, wing_or_404
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import BatchRequest, FlutterRequest, FlutterSummary
 from romams import jobs
-from romams.persistence import FINAL, JobStatus, content_hash
+from romams.persistence import FINAL, JobStatus
 from romams.serialize import to_jsonable
 from romams.services.errors import ServiceError
+from romams.services.evaluation import evaluation_key
 from romams.services.flight import FlightCondition
 from romams.services.models import resolve_basis_id, trained_rom_ids
 from romams.services.queue import TASK_FOR_KIND
@@ -81,15 +82,22 @@ def _wait(svc: Service, job_id: str, timeout_s: float) -> dict[str, Any] | None:
     return jobs.wait_for(svc.store, job_id, timeout_s)
 
 
-def _failed(job: dict[str, Any]) -> ServiceError:
-    """The typed error of a failed job (stored structured by the worker; input was validated: else a 500)."""
-    err = (job.get("result") or {}).get("error") if isinstance(job.get("result"), dict) else None
-    if err is None:
-        text = (job.get("error") or "evaluation failed").splitlines()[0]
-        err = {"status": 500, "field": None, "reason": f"evaluation failed: {text}"}
+def _failed(job_id: str, outcome: dict[str, Any]) -> ServiceError:
+    """The typed error of a failed job outcome (stored structured by the worker; else a 500 with its text)."""
+    err = outcome.get("error") or {"status": 500, "field": None,
+                                   "reason": f"evaluation failed: {str(outcome.get('text')).splitlines()[0]}"}
     out = ServiceError.from_dict(err)
-    out.extra["job_id"] = job["id"]
+    out.extra["job_id"] = job_id
     return out
+
+
+def _row_outcome(job: dict[str, Any] | None) -> dict[str, Any] | None:
+    """{status, result, error, text} of a final job row (None while the job is not final)."""
+    if job is None or job["status"] not in FINAL:
+        return None
+    result = job["result"] if isinstance(job["result"], dict) else {}
+    return {"status": job["status"], "result": job["result"], "error": result.get("error"),
+            "text": job.get("error") or job["status"]}
 
 
 @router.post("/wings/{wing}/flutter", dependencies=[Depends(require_key)],
@@ -113,8 +121,7 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
         design = _design_vector(w, body.design, "design")
     request = body.model_dump(exclude={"modes"})
     condition = _condition(body).to_json()
-    h = (content_hash("flutter", wid, bid, rom_ids, condition, design)
-         if modes_id is None and body.method == "rom-ams" else None)
+    h = evaluation_key(wid, bid, rom_ids, condition, design) if modes_id is None and body.method == "rom-ams" else None
     if h is not None and body.store:
         cached = svc.store.evaluations.find(h)
         if cached is not None:
@@ -129,17 +136,13 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
     job_id = jobs.submit(svc.store, svc.celery, "flutter", params, wing_id=wid)
     out = jobs.wait_result(svc.celery, job_id, svc.settings.sync_timeout_s)
     if out is not None and out.get("status") is None:  # not run by this delivery (e.g. redelivered): the row knows
-        out = None
-        job = svc.store.jobs.get(job_id)
-        if job is not None and job["status"] in FINAL:
-            out = {"status": job["status"], "result": job["result"], "error": (job["result"] or {}).get("error")
-                   if job["status"] == JobStatus.FAILED and isinstance(job["result"], dict) else None}
+        out = _row_outcome(svc.store.jobs.get(job_id))
     if out is None:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{job_id}"
         return {"job_id": job_id, "status": JobStatus.QUEUED}
     if out["status"] != JobStatus.SUCCEEDED:
-        raise _failed({"id": job_id, "result": {"error": out.get("error")}, "error": out["status"]})
+        raise _failed(job_id, {"text": out["status"], **out})
     # the worker's summary is JSON already: send it as is (no second encoding pass over the nested result)
     return JSONResponse({**out["result"], "job_id": job_id})
 
@@ -179,7 +182,7 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
         response.headers["Location"] = f"/api/v1/jobs/{parent}"
         return {"job_id": parent, "status": JobStatus.RUNNING, "n": n}
     if job["status"] != JobStatus.SUCCEEDED:
-        raise _failed(job)
+        raise _failed(parent, _row_outcome(job) or {})
     return {"results": job["result"]["results"], "job_id": parent}
 
 

@@ -23,16 +23,11 @@ class BasisRepository(Repository):
         n_basis = int(getattr(basis, "n_basis", 0) or 0)
         row = BasisRow(wing_id=int(wing_id), params=serialize.to_jsonable(dict(params)), n_basis=n_basis,
                        summary=small_summary(basis), meta=meta, blob=blob, job_id=job_id)
-        self._session.add(row)
-        self._session.flush()
-        return int(row.id)
+        return self._insert(row)
 
     def load(self, basis_id: int) -> Any:
         """The Basis stored under ``basis_id`` (KeyError if absent)."""
-        row = self._session.get(BasisRow, int(basis_id))
-        if row is None:
-            raise KeyError(f"basis {basis_id} not found")
-        return serialize.loads(row.meta, row.blob)
+        return self._load_object(BasisRow, basis_id, "basis")
 
     def wing_id(self, basis_id: int) -> int | None:
         """Id of the wing a basis belongs to, or None if there is no such basis."""

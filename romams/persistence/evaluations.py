@@ -23,9 +23,7 @@ class EvaluationRepository(Repository):
         row = Evaluation(wing_id=int(wing_id), basis_id=basis_id, method=method, content_hash=content_hash,
                          request=serialize.to_jsonable(dict(request or {})),
                          summary=serialize.to_jsonable(dict(summary)), meta=meta, blob=blob)
-        self._session.add(row)
-        self._session.flush()
-        return int(row.id)
+        return self._insert(row)
 
     def get(self, evaluation_id: int, full: bool = False) -> dict[str, Any] | None:
         """Evaluation row as a dict (with the deserialized result under "result" when ``full``)."""

@@ -18,13 +18,8 @@ class ModesRepository(Repository):
         meta, blob = serialize.dumps(modes)
         row = ModesUpload(source=source, filename=filename[:400], meta=meta, blob=blob,
                           summary=serialize.to_jsonable(dict(summary or {})))
-        self._session.add(row)
-        self._session.flush()
-        return int(row.id)
+        return self._insert(row)
 
     def load(self, modes_id: int) -> Any:
         """External modes stored under ``modes_id`` (KeyError if absent)."""
-        row = self._session.get(ModesUpload, int(modes_id))
-        if row is None:
-            raise KeyError(f"modes {modes_id} not found")
-        return serialize.loads(row.meta, row.blob)
+        return self._load_object(ModesUpload, modes_id, "modes")

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from sqlalchemy.orm import Session
+
+from romams import serialize
 
 
 class Repository:
@@ -10,3 +14,16 @@ class Repository:
 
     def __init__(self, session: Session) -> None:
         self._session = session
+
+    def _insert(self, row: Any) -> int:
+        """Add ``row`` and flush it; its new id."""
+        self._session.add(row)
+        self._session.flush()
+        return int(row.id)
+
+    def _load_object(self, model: Any, row_id: int, what: str) -> Any:
+        """The core object stored (meta + NPZ blob) in the ``model`` row ``row_id``; KeyError naming ``what``."""
+        row = self._session.get(model, int(row_id))
+        if row is None:
+            raise KeyError(f"{what} {row_id} not found")
+        return serialize.loads(row.meta, row.blob)

@@ -32,16 +32,11 @@ class RomRepository(Repository):
         row = RomRow(wing_id=int(wing_id), basis_id=int(basis_id), mach=mach, solver=str(params.get("solver", "")),
                      key=key, params=serialize.to_jsonable(dict(params)), summary=small_summary(rom), meta=meta,
                      blob=blob, job_id=job_id)
-        self._session.add(row)
-        self._session.flush()
-        return int(row.id)
+        return self._insert(row)
 
     def load(self, rom_id: int) -> Any:
         """The TrainedRom stored under ``rom_id`` (KeyError if absent)."""
-        row = self._session.get(RomRow, int(rom_id))
-        if row is None:
-            raise KeyError(f"rom {rom_id} not found")
-        return serialize.loads(row.meta, row.blob)
+        return self._load_object(RomRow, rom_id, "rom")
 
     def find_id(self, wing_id: int, basis_id: int, mach: float, params: Mapping[str, Any]) -> int | None:
         """Id of the ROM trained with exactly these settings, or None."""

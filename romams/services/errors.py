@@ -66,13 +66,23 @@ class ServerError(ServiceError):
 _BY_STATUS: dict[int, type[ServiceError]] = {422: InvalidInput, 404: NotFound, 409: Conflict, 500: ServerError}
 
 
+#: Field roots the core uses for a whole input object: under a request ``prefix`` the prefix replaces them
+#: (``design.x3`` under ``designs[2]`` is ``designs[2].x3``).
+WHOLE_INPUT_ROOTS = ("design", "modes", "definition", "template", "wing", "file", "bdf", "json", "npz", "nastran")
+
+
 def from_input_error(exc: InputError | ValueError, prefix: str | None = None) -> InvalidInput:
-    """InvalidInput from a core InputError (its field, optionally under ``prefix``) or a plain ValueError."""
+    """InvalidInput from a core InputError (its field nested under the request path ``prefix``) or a plain
+    ValueError (reported under ``prefix`` as a whole)."""
     field = getattr(exc, "field", None)
     reason = getattr(exc, "reason", None) or str(exc)
-    if prefix and field and not field.startswith(prefix):
-        field = f"{prefix}.{field}"
-    return InvalidInput(field or prefix, reason)
+    if prefix and field:
+        root = field.split(".")[0].split("[")[0]
+        if root in WHOLE_INPUT_ROOTS:
+            field = prefix + field[len(root):]
+        elif not field.startswith(prefix):
+            field = f"{prefix}.{field}"
+    return InvalidInput(field or prefix or None, reason)
 
 
 def error_dict(exc: BaseException) -> dict[str, Any]:
