@@ -148,7 +148,8 @@ def demo_command(
         design_evals[name] = ev
         t = time.perf_counter()
         pms_roms = train_shapes(mesh, modal.shapes, machs, ident, procs)
-        pms, _ = pms_summary(models, modal, {m: (0, r) for m, r in zip(machs, pms_roms, strict=True)}, condition)
+        own = {m: (models.roms[m][0], r) for m, r in zip(machs, pms_roms, strict=True)}  # ids: the settings' ROMs
+        pms, _ = pms_summary(models, modal, own, condition)
         timings.setdefault("rom_pms_training_s", []).append(time.perf_counter() - t)
         rows = []
         for ams, ref in zip(ev.flutter, pms["results"], strict=True):

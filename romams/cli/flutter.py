@@ -109,9 +109,9 @@ def flutter_command(
                             mac_threshold=mac)
         if method == "rom-pms":
             modal = structure_modal(models, values, modes)
-            own = train_shapes(models.mesh, modal.shapes, machs, ident)
-            summary, result = pms_summary(models, modal, {m: (0, r) for m, r in zip(machs, own, strict=True)},
-                                          condition, external=modes is not None)
+            trained = train_shapes(models.mesh, modal.shapes, machs, ident)
+            own = {m: (models.roms[m][0], r) for m, r in zip(machs, trained, strict=True)}  # ids: the settings' ROMs
+            summary, result = pms_summary(models, modal, own, condition, external=modes is not None)
         else:
             summary, result = evaluate_structure_summary(models, design=values, modes=modes, condition=condition)
     except ServiceError as exc:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from romams.persistence import content_hash
 from romams.serialize import to_jsonable
 from romams.services.errors import InvalidInput, from_input_error
 from romams.services.flight import DEFAULT_CONDITION, FlightCondition
@@ -61,14 +62,14 @@ def damping_ratio(wing: Any) -> float | None:
     return z if z > 0 else None
 
 
-def structure_modal(models: Models, design: Any = None, modes: Any = None, n_modes: int | None = None) -> Any:
+def structure_modal(models: Models, design: Any = None, modes: Any = None) -> Any:
     """ModalResult of the structure: ``modes`` (ExternalModes on the standard mesh), else a design, else the baseline.
 
-    ``n_modes`` defaults to the basis' modes per structure. InvalidInput naming ``design``/``modes``.
+    As many modes as the basis has per structure. InvalidInput naming ``design``/``modes``.
     """
     from romams_core.structure.modal import modal_analysis
 
-    k = int(n_modes or getattr(models.basis, "n_modes", 0) or DEFAULT_N_MODES)
+    k = int(getattr(models.basis, "n_modes", 0) or DEFAULT_N_MODES)
     try:
         if modes is not None:
             from romams_core.modes_io import external_modal_result
@@ -144,6 +145,12 @@ def pms_summary(models: Models, modal: Any, own_roms: Mapping[float, tuple[int, 
     pms = Models(models.wing_id, models.wing, models.mesh, models.basis_id, models.basis, own_roms)
     result = evaluate(pms, modal, condition, benchmark=None if base is None else base.envelope, own_modes=True)
     return summarize(result, pms, condition, method="rom-pms", external=external), result
+
+
+def evaluation_key(wing_id: int, basis_id: int, rom_ids: Any, condition: Mapping[str, Any], design: Any) -> str:
+    """Content hash of one design's evaluation (same inputs, same summary): the API's stored-evaluation lookup and
+    the workers' result cache use it."""
+    return content_hash("flutter", wing_id, basis_id, rom_ids, dict(condition), design)
 
 
 def fit_error_estimate(min_mac: float) -> float:
@@ -225,8 +232,10 @@ def summarize(result: Any, models: Models, condition: FlightCondition = DEFAULT_
         "warning": None,
     }
     if method == "rom-ams" and (not fit_ok or est > VALIDATED_ERROR):
-        bad = [i + 1 for i, m in enumerate(np.asarray(result.mac)) if m < float(models.basis.mac_threshold)]
-        out["warning"] = (f"modes {bad} fit the basis with MAC < {float(models.basis.mac_threshold):g} (worst "
+        # the modes below the basis threshold, or whose own estimate exceeds the validated accuracy
+        limit = max(float(models.basis.mac_threshold), 1.0 - (VALIDATED_ERROR / FIT_ERROR_PER_RESIDUAL) ** 2)
+        bad = [i + 1 for i, m in enumerate(np.asarray(result.mac)) if m < limit]
+        out["warning"] = (f"modes {bad} fit the basis with MAC < {limit:.6g} (worst "
                           f"{min_mac:.5f}): estimated flutter-speed error {100.0 * est:.1f} % (the basis was "
                           f"validated for {100.0 * VALIDATED_ERROR:g} %); verify with method rom-pms")
     return to_jsonable(out)
