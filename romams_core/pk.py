@@ -383,6 +383,25 @@ def pk_flutter(
     )
 
 
+def solver_table(mesh: StandardMesh, shapes: np.ndarray, mach: float, solver: Any, k_max: float,
+                 n_k: int, derivative: str = "exact") -> AeroTable:
+    """AeroTable on k = 0 .. k_max (n_k points) from a frequency-domain solver (``.gaf``, the DLM) or the UVLM."""
+    if solver is not None and hasattr(solver, "gaf"):
+        k = np.linspace(0.0, float(k_max), int(n_k))
+        h = solver.gaf(mesh, shapes, mach, k)
+        return AeroTable(k=k, h=h, mach=float(mach), description=solver.info(mach).description)
+    return uvlm_table(mesh, shapes, mach, k_max=k_max, n_k=n_k, solver=solver, derivative=derivative)
+
+
+def _with_exact_point(table: AeroTable, mesh: StandardMesh, shapes: np.ndarray, solver: Any, k_f: float) -> AeroTable:
+    """``table`` with the solver's exact GAF at k_f inserted (the harmonic check of the flutter root)."""
+    h_f = np.asarray(solver.gaf(mesh, shapes, table.mach, np.array([k_f])), dtype=complex)
+    k = np.concatenate([table.k, [k_f]])
+    order = np.argsort(k)
+    return AeroTable(k=k[order], h=np.concatenate([table.h, h_f])[order], mach=table.mach,
+                     description=table.description + f"; exact GAF at the flutter k = {k_f:.6g}")
+
+
 def fom_flutter(
     mesh: StandardMesh,
     omega: np.ndarray,
@@ -396,12 +415,15 @@ def fom_flutter(
     derivative: str = "exact",
     **kwargs: Any,
 ) -> tuple[PkResult, AeroTable]:
-    """Full-order p-k flutter of structure (omega [k] rad/s, mass-normalized shapes [N, k] m) with the UVLM.
+    """Full-order p-k flutter of structure (omega [k] rad/s, mass-normalized shapes [N, k] m).
 
-    The UVLM frequency response is tabulated once on k = 0 .. k_max in steps of about ``dk``, with k_max
-    = 1.3 max(omega) b / V_min + 0.1 (V_min the lowest true speed of the sweep: "constant-speed" or "matched"
-    only), then ``pk_flutter`` runs with ``kwargs`` (rho_ref, a_ref, q_max, n_points, ...). Returns
-    (PkResult, AeroTable). A root outside the table doubles k_max (twice at most).
+    ``solver``: a frequency-domain solver (``.gaf``, e.g. the DLM) or the UVLM (default ``UvlmSolver()``). Its
+    GAF is tabulated once on k = 0 .. k_max in steps of about ``dk``, with k_max = 1.3 max(omega) b / V_min + 0.1
+    (V_min the lowest true speed of the sweep: "constant-speed" or "matched" only), and ``pk_flutter`` runs with
+    ``kwargs`` (rho_ref, a_ref, q_max, n_points, ...). A root outside the table doubles k_max (twice at most).
+    Harmonic check (frequency-domain solvers): the exact GAF at the flutter k is added to the table and the
+    search repeated until q_f moves by less than 1e-4 (twice at most); the message gives the last change.
+    Returns (PkResult, AeroTable).
     """
     om = np.atleast_1d(np.asarray(omega, dtype=float))
     dk = finite_positive("dk", dk)
@@ -421,11 +443,36 @@ def fom_flutter(
     k_max = 1.3 * float(np.max(om)) * 0.5 * mesh.c_ref / v_min + 0.1
     for attempt in range(3):  # a root beyond the table (aerodynamic stiffening) doubles the k range, twice at most
         n_k = max(4, int(math.ceil(k_max / dk)) + 1)
-        table = uvlm_table(mesh, shapes, mach_f, k_max=k_max, n_k=n_k, solver=solver, derivative=derivative)
+        table = solver_table(mesh, shapes, mach_f, solver, k_max, n_k, derivative)
         try:
-            return pk_flutter(om, table, mesh.c_ref, mach_f, sweep=sweep, zeta=zeta, **kwargs), table
+            res = pk_flutter(om, table, mesh.c_ref, mach_f, sweep=sweep, zeta=zeta, **kwargs)
         except ValueError as exc:
             if not str(exc).startswith("k: reduced frequency") or attempt == 2:
                 raise
             k_max *= 2.0
+            continue
+        return _harmonic_check(res, table, mesh, shapes, solver, om, zeta, sweep, kwargs)
     raise AssertionError("unreachable")
+
+
+def _harmonic_check(res: PkResult, table: AeroTable, mesh: StandardMesh, shapes: np.ndarray, solver: Any,
+                    om: np.ndarray, zeta: Any, sweep: str, kwargs: dict[str, Any]) -> tuple[PkResult, AeroTable]:
+    """Repeat the p-k search with the exact GAF at the flutter k until q_f settles (frequency-domain solvers)."""
+    if solver is None or not hasattr(solver, "gaf") or not res.flutter_found:
+        return res, table
+    change = math.inf
+    for _ in range(2):
+        assert res.k_flutter is not None and res.q_flutter_pa is not None
+        if np.min(np.abs(table.k - res.k_flutter)) < 1e-9 * max(1.0, res.k_flutter):
+            break
+        table = _with_exact_point(table, mesh, shapes, solver, float(res.k_flutter))
+        new = pk_flutter(om, table, mesh.c_ref, res.mach, sweep=sweep, zeta=zeta, **kwargs)
+        if not new.flutter_found or new.q_flutter_pa is None:
+            break
+        change = abs(new.q_flutter_pa - res.q_flutter_pa) / res.q_flutter_pa
+        res = new
+        if change < 1e-4:
+            break
+    if math.isfinite(change):
+        res.message += f"; harmonic check with the exact GAF at k_f: q_f changed by {change:.1e} (relative)"
+    return res, table

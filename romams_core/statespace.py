@@ -1,6 +1,8 @@
-"""Discrete state-space models of the aerodynamics in nondimensional time t* (step dt_star).
+"""State-space models of the aerodynamics in nondimensional time t* = t V / c_ref.
 
-x(n+1) = A x(n) + B u(n),  f(n) = C x(n) + D u(n); u generalized displacements, f GAC (m^3).
+Discrete (ARX ROMs, step dt_star): x(n+1) = A x(n) + B u(n),  f(n) = C x(n) + D u(n).
+Continuous (rational-function ROMs of frequency-domain solvers): dx/dt* = A x + B u,
+f = C x + D u + D1 du/dt* + D2 d2u/dt*2. u generalized displacements, f GAC (m^3).
 Tools: ARX realization, stability, balanced truncation, basis -> real modal coordinates, Tustin d2c.
 """
 
@@ -9,6 +11,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 import scipy.linalg as sla
@@ -90,18 +93,54 @@ class DiscreteSS:
 
 @dataclass
 class ContinuousSS:
-    """Continuous-time LTI model with derivatives in t* (d/dt = (V / c_ref) d/dt*): A, B, C, D."""
+    """Continuous-time LTI model with derivatives in t* (d/dt = (V / c_ref) d/dt*): A, B, C, D.
+
+    ``D1`` and ``D2`` (optional, [p, m]) are the feedthrough of du/dt* and d2u/dt*2: the aerodynamic damping
+    and apparent-mass terms of a rational function approximation, H(s*) = C (s* I - A)^-1 B + D + D1 s* + D2 s*^2.
+    """
 
     A: np.ndarray
     B: np.ndarray
     C: np.ndarray
     D: np.ndarray
+    D1: np.ndarray | None = None
+    D2: np.ndarray | None = None
+
+    @property
+    def n_states(self) -> int:
+        """State dimension n."""
+        return int(self.A.shape[0])
+
+    @property
+    def n_inputs(self) -> int:
+        """Input dimension m."""
+        return int(self.D.shape[1])
+
+    @property
+    def n_outputs(self) -> int:
+        """Output dimension p."""
+        return int(self.D.shape[0])
+
+    def transfer(self, s_star: np.ndarray) -> np.ndarray:
+        """Transfer matrix [n, p, m] at complex nondimensional Laplace variables s* [n] (s* = s c_ref / V)."""
+        s_star = np.atleast_1d(np.asarray(s_star, dtype=complex))
+        eye = np.eye(self.n_states)
+        out = np.empty((s_star.size, self.n_outputs, self.n_inputs), dtype=complex)
+        for n, s in enumerate(s_star):  # a table of frequencies
+            out[n] = self.D + (self.C @ np.linalg.solve(s * eye - self.A, self.B) if self.n_states else 0.0)
+            if self.D1 is not None:
+                out[n] += s * self.D1
+            if self.D2 is not None:
+                out[n] += s * s * self.D2
+        return out
 
     def freqresp(self, k_values: np.ndarray) -> np.ndarray:
         """Transfer matrix [nk, p, m] at reduced frequencies k on the semichord (s* = i 2 k)."""
-        k_values = np.atleast_1d(np.asarray(k_values, dtype=float))
-        eye = np.eye(self.A.shape[0])
-        return np.stack([self.C @ np.linalg.solve(2j * k * eye - self.A, self.B) + self.D for k in k_values])
+        return self.transfer(2j * np.atleast_1d(np.asarray(k_values, dtype=float)))
+
+    def is_stable(self) -> bool:
+        """True when every pole has a negative real part (a static model is stable)."""
+        return bool(self.n_states == 0 or np.max(np.linalg.eigvals(self.A).real) < 0.0)
 
 
 def spectral_radius(a: np.ndarray) -> float:
@@ -280,11 +319,22 @@ def refit_output_map(ss: DiscreteSS, u: np.ndarray, y: np.ndarray) -> DiscreteSS
                       dt_star=ss.dt_star)
 
 
-def to_modal(ss: DiscreteSS, gamma: np.ndarray) -> DiscreteSS:
-    """Basis-coordinate model -> real modal coordinates: u = gamma xi, F = gamma^T f (gamma [m, k]), exact."""
+@overload
+def to_modal(ss: DiscreteSS, gamma: np.ndarray) -> DiscreteSS: ...
+@overload
+def to_modal(ss: ContinuousSS, gamma: np.ndarray) -> ContinuousSS: ...
+def to_modal(ss: DiscreteSS | ContinuousSS, gamma: np.ndarray) -> DiscreteSS | ContinuousSS:
+    """Basis-coordinate model -> real modal coordinates: u = gamma xi, F = gamma^T f (gamma [m, k]), exact.
+
+    Works on discrete and continuous models alike (a continuous model's D1, D2 transform like D).
+    """
     gamma = np.asarray(gamma, dtype=float)
     if gamma.ndim != 2 or gamma.shape[0] != ss.n_inputs or ss.n_inputs != ss.n_outputs:
         raise InputError("gamma", f"expected shape [{ss.n_inputs}, k] for a square {ss.n_outputs}x{ss.n_inputs} model")
+    if isinstance(ss, ContinuousSS):
+        return ContinuousSS(A=ss.A.copy(), B=ss.B @ gamma, C=gamma.T @ ss.C, D=gamma.T @ ss.D @ gamma,
+                            D1=None if ss.D1 is None else gamma.T @ ss.D1 @ gamma,
+                            D2=None if ss.D2 is None else gamma.T @ ss.D2 @ gamma)
     return DiscreteSS(A=ss.A.copy(), B=ss.B @ gamma, C=gamma.T @ ss.C, D=gamma.T @ ss.D @ gamma, dt_star=ss.dt_star)
 
 

@@ -82,6 +82,23 @@ def _pair_selection(lam: np.ndarray) -> tuple[np.ndarray, bool]:
     return (~neg if paired else np.ones(lam.shape, bool)), paired
 
 
+def _rate_terms(
+    m: Model, s: np.ndarray, vc: np.ndarray, q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
+    """Contributions [n, k*k] of the D1, D2 terms of a continuous aero model to T(s) and dT/ds at s [n] (rad/s).
+
+    -q (s / vc) D1 - q (s / vc)^2 D2 and its derivative -q (D1 / vc + 2 s D2 / vc^2); (None, None) without them.
+    """
+    if m.d1 is None and m.d2 is None:
+        return None, None
+    k2 = m.k * m.k
+    sv = (s / vc)[:, None]
+    qv = (q / vc)[:, None]
+    d1 = np.zeros(k2) if m.d1 is None else m.d1.ravel()
+    d2 = np.zeros(k2) if m.d2 is None else m.d2.ravel()
+    return -q[:, None] * (sv * d1 + sv * sv * d2), -qv * (d1 + 2.0 * sv * d2)
+
+
 def struct_vectors(
     m: Model, lam: np.ndarray, v: np.ndarray, q: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -108,6 +125,9 @@ def struct_vectors(
         t = (m.d.ravel() + rr[:nm]) * (-q[rows])[:, None]
         g = 2.0 * m.zeta * m.omega
         t[:, :: k + 1] += (ss[:, None] + g) * ss[:, None] + m.omega**2
+        t_rate, dt_rate = _rate_terms(m, ss, vc, q[rows])
+        if t_rate is not None:
+            t += t_rate
         try:
             ti = np.linalg.inv(t.reshape(-1, k, k))  # T^-1 ~ xi eta^H / sigma_min: right and left null vectors
         except np.linalg.LinAlgError:
@@ -119,6 +139,8 @@ def struct_vectors(
         x /= np.linalg.norm(x, axis=1, keepdims=True)
         ps = np.abs(np.sum(zc * (2.0 * ss[:, None] + g) * y, axis=1))
         dta = rr[nm:].reshape(-1, k, k) * (q[rows] / vc)[:, None, None]  # -q dH/ds
+        if dt_rate is not None:
+            dta = dta + dt_rate.reshape(-1, k, k)
         pa = np.abs((zc[:, None, :] @ (dta @ y[:, :, None]))[:, 0, 0])
         cont = ps / (ps + pa)
     if not (np.isfinite(x).all() and np.isfinite(cont).all()):
@@ -170,6 +192,10 @@ def _tustin_matrices(m: Model, v: np.ndarray, q: np.ndarray) -> np.ndarray:
     ac[:, k:n2, n2:] = qq * m.c
     ac[:, n2:, :k] = vc * m.b
     ac[:, n2:, n2:] = vc * m.a
+    if m.d1 is not None:  # aerodynamic damping q (c_ref / V) D1 xi'
+        ac[:, k:n2, k:n2] += (qq / vc) * m.d1
+    if m.d2 is not None:  # apparent mass: (I - q (c_ref / V)^2 D2) xi'' = rest of the row block
+        ac[:, k:n2, :] = np.linalg.solve(np.eye(k) - (qq / (vc * vc)) * m.d2, ac[:, k:n2, :])
     return ac
 
 
@@ -259,7 +285,8 @@ def newton_root(m: Model, vc: float, q: float, s0: complex, scale: float, maxit:
     """Eigenvalue s (rad/s) of the Tustin coupled system at V/c_ref = vc (1/s), q (Pa) by Newton on det T(s) from s0.
 
     Step: s <- s - 1 / tr(T^-1 dT/ds) (d ln det T / ds), dT/ds = 2 s I + G + (q / vc) sum_i res_i r_i^2 with
-    r_i = vc / (s - vc lam_i); quadratic near a simple root, so a step below 1e-7 ``scale`` leaves an error of
+    r_i = vc / (s - vc lam_i) (plus the D1, D2 terms of a continuous model, ``_rate_terms``); quadratic near a
+    simple root, so a step below 1e-7 ``scale`` leaves an error of
     order 1e-14 ``scale``: converged. Raises NoRoot otherwise.
     """
     assert m.lam_a is not None and m.res is not None
@@ -268,6 +295,7 @@ def newton_root(m: Model, vc: float, q: float, s0: complex, scale: float, maxit:
     g = 2.0 * m.zeta * m.omega
     kd = m.omega**2
     qd = -q * m.d.ravel()
+    rate = m.d1 is not None or m.d2 is not None
     s = complex(s0)
     with np.errstate(all="ignore"):
         for _ in range(maxit):
@@ -276,6 +304,11 @@ def newton_root(m: Model, vc: float, q: float, s0: complex, scale: float, maxit:
             t[:: k + 1] += s * s + g * s + kd
             dt = (q / vc) * ((r * r) @ res)
             dt[:: k + 1] += 2.0 * s + g
+            if rate:
+                t_rate, dt_rate = _rate_terms(m, np.array([s]), np.array([vc]), np.array([q]))
+                assert t_rate is not None and dt_rate is not None
+                t = t + t_rate[0]
+                dt = dt + dt_rate[0]
             _, _, x, info = _zgesv(t.reshape(k, k), dt.reshape(k, k))
             if info > 0:
                 return s  # T(s) exactly singular: s is an eigenvalue

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from romams_core.errors import InputError
+from romams_core.statespace import ContinuousSS
 from romams_core.validation import check_choice, check_int, finite_positive
 
 SWEEPS = ("constant-density", "constant-speed", "matched")
@@ -44,14 +46,33 @@ def check_flutter_inputs(
     return om, zt, c, float(mach)
 
 
-def aero_matrices(aero: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
-    """Validated (A, B, C, D, dt_star) of a discrete aero model with k inputs and k outputs."""
+@dataclass(frozen=True)
+class AeroParts:
+    """Validated matrices of an aero model with k inputs and outputs: discrete (dt_star > 0) or continuous in t*
+    (dt_star = 0; optional D1, D2 feedthrough of du/dt*, d2u/dt*2)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    d: np.ndarray
+    dt_star: float
+    d1: np.ndarray | None = None
+    d2: np.ndarray | None = None
+
+    @property
+    def continuous(self) -> bool:
+        """True for a continuous-time model (a rational-function ROM)."""
+        return self.dt_star == 0.0
+
+
+def aero_matrices(aero: Any, k: int) -> AeroParts:
+    """Validated matrices of a discrete (A, B, C, D, dt_star) or continuous (ContinuousSS) aero model, k modes."""
+    continuous = isinstance(aero, ContinuousSS)
     try:
         a, b, c, d = (np.asarray(getattr(aero, n), dtype=float) for n in ("A", "B", "C", "D"))
-        dt_star = aero.dt_star
+        dt_star = 0.0 if continuous else finite_positive("aero.dt_star", aero.dt_star)
     except AttributeError as exc:
         raise InputError("aero", f"needs attributes A, B, C, D, dt_star ({exc})") from None
-    dt_star = finite_positive("aero.dt_star", dt_star)
     na = a.shape[0] if a.ndim == 2 else -1
     if a.ndim != 2 or a.shape != (na, na):
         raise InputError("aero.A", f"must be square, got shape {a.shape}")
@@ -59,12 +80,17 @@ def aero_matrices(aero: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray
         raise InputError("aero.B", f"must have shape ({na}, {k}) for {k} structural modes, got {b.shape}")
     if c.shape != (k, na):
         raise InputError("aero.C", f"must have shape ({k}, {na}) for {k} structural modes, got {c.shape}")
-    if d.shape != (k, k):
-        raise InputError("aero.D", f"must have shape ({k}, {k}), got {d.shape}")
-    for n, m in (("A", a), ("B", b), ("C", c), ("D", d)):
+    extra = {}
+    for n in ("D1", "D2") if continuous else ():
+        if getattr(aero, n, None) is not None:
+            extra[n] = np.asarray(getattr(aero, n), dtype=float)
+    for n, m in (("D", d), *extra.items()):
+        if m.shape != (k, k):
+            raise InputError(f"aero.{n}", f"must have shape ({k}, {k}), got {m.shape}")
+    for n, m in (("A", a), ("B", b), ("C", c), ("D", d), *extra.items()):
         if not np.all(np.isfinite(m)):
             raise InputError(f"aero.{n}", "contains non-finite values")
-    return a, b, c, d, dt_star
+    return AeroParts(a, b, c, d, dt_star, extra.get("D1"), extra.get("D2"))
 
 
 def check_search_options(coupling: str, n_points: Any, sdoff_share: Any, sdoff_q_factor: Any, rtol: Any) -> None:

@@ -6,6 +6,11 @@ dx/dt = (V / c_ref)(Abar x + Bbar xi). When Abar is reliably diagonalizable (eig
 ``DIAG_COND_MAX``) its eigen-decomposition is kept, so that the aero transfer matrix in physical time is
 H(s) = Dbar + sum_i res_i vc / (s - vc lam_i) (vc = V / c_ref) and the eigen-solver can work with the k x k
 matrix T(s) = s^2 I + s G + K - q H(s) (``eigen.py``). Zero-order hold: the discrete matrices are kept as they are.
+
+Continuous aero models (``ContinuousSS``, the rational-function ROMs of frequency-domain solvers) are used as
+they are by the default coupling (no map needed); their aerodynamic damping and apparent-mass terms D1, D2
+(f += D1 du/dt* + D2 d2u/dt*2) enter T(s) as -q (s / vc) D1 - q (s / vc)^2 D2. The zero-order hold needs a
+discrete model and refuses them.
 """
 
 from __future__ import annotations
@@ -44,11 +49,35 @@ PREP_CACHE_SIZE = 64
 DIAG_COND_MAX = 1e6  # eigenvector condition number above which the fast (diagonalized) path is not used
 
 
+def _continuous_prep(a: np.ndarray) -> AeroPrep:
+    """Structure-independent data of a continuous aero matrix ``a`` in t* (validated: every pole Re < 0)."""
+    na = a.shape[0]
+    if not na:
+        return AeroPrep(0.0, None, a.copy(), np.zeros(0, complex), np.zeros((0, 0), complex),
+                        np.zeros((0, 0), complex), np.zeros(0, complex))
+    lam, w = np.linalg.eig(a)
+    lam = lam.astype(complex)
+    if np.max(lam.real) >= 0.0:
+        raise InputError("aero.A", f"unstable aerodynamic model (pole with real part {np.max(lam.real):.6g} >= 0)")
+    wi = None
+    if np.all(np.isfinite(w)) and np.linalg.cond(w) < DIAG_COND_MAX:
+        wi, w = np.linalg.inv(w).astype(complex), w.astype(complex)
+    return AeroPrep(float(np.max(np.abs(lam))), None, a.copy(), lam if wi is not None else None,
+                    w if wi is not None else None, wi, lam)
+
+
 def aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> AeroPrep:
-    """Cached structure-independent data of aero matrix ``a`` (validated: stable, Tustin-convertible)."""
+    """Cached structure-independent data of aero matrix ``a`` (validated: stable, Tustin-convertible).
+
+    ``dt_star`` = 0 marks a continuous matrix in t* (used as it is by the "tustin" coupling).
+    """
     key = (coupling, float(dt_star), a.shape, a.tobytes())
     prep = PREP_CACHE.get(key)
     if prep is not None:
+        return prep
+    if dt_star == 0.0:
+        prep = _continuous_prep(a)
+        _cache(key, prep)
         return prep
     na = a.shape[0]
     z = np.linalg.eigvals(a).astype(complex) if na else np.zeros(0, complex)
@@ -73,10 +102,15 @@ def aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> AeroPrep:
             abar, lam = np.zeros((0, 0)), np.zeros(0, complex)
             w, wi = np.zeros((0, 0), complex), np.zeros((0, 0), complex)
     prep = AeroPrep(rad, lu, abar, lam, w, wi, poles)
+    _cache(key, prep)
+    return prep
+
+
+def _cache(key: tuple[Any, ...], prep: AeroPrep) -> None:
+    """Store ``prep`` in the bounded PREP_CACHE (oldest entry dropped)."""
     if len(PREP_CACHE) >= PREP_CACHE_SIZE:
         PREP_CACHE.pop(next(iter(PREP_CACHE)))
     PREP_CACHE[key] = prep
-    return prep
 
 
 @dataclass
@@ -101,6 +135,8 @@ class Model:
     res: np.ndarray | None = None
     base: np.ndarray | None = None  # sweep-independent part of the coupled matrix (Tustin), built on first use
     poles: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))  # aero poles in t* (continuous)
+    d1: np.ndarray | None = None  # [k, k] feedthrough of dxi/dt* (continuous aero models: aerodynamic damping)
+    d2: np.ndarray | None = None  # [k, k] feedthrough of d2xi/dt*2 (continuous aero models: apparent mass)
 
     @property
     def min_speed(self) -> float:
@@ -122,21 +158,29 @@ class Model:
         """The 1-mode model of structural mode j with its own diagonal aero terms."""
         return Model(1, self.na, self.omega[[j]], self.zeta[[j]], self.c_ref, self.dt_star, self.coupling, self.a,
                      self.b[:, [j]], self.c[[j], :], self.d[[j]][:, [j]], self.lam_a,
-                     None if self.res is None else self.res[:, [j * self.k + j]], None, self.poles)
+                     None if self.res is None else self.res[:, [j * self.k + j]], None, self.poles,
+                     None if self.d1 is None else self.d1[[j]][:, [j]],
+                     None if self.d2 is None else self.d2[[j]][:, [j]])
 
 
 def make_model(om: np.ndarray, zt: np.ndarray, c_ref: float, aero: Any, coupling: str) -> Model:
     """Validated coupling data of structure (omega [k] rad/s, zeta [k]) and discrete aero model ``aero``."""
     k = om.size
-    a, b, c, d, dt_star = aero_matrices(aero, k)
+    parts = aero_matrices(aero, k)
+    a, b, c, d, dt_star = parts.a, parts.b, parts.c, parts.d, parts.dt_star
+    if parts.continuous and coupling != "tustin":
+        raise InputError("coupling", f"{coupling!r} needs a discrete-time aero model; a continuous one (a "
+                                     "rational-function ROM) is coupled as it is by the default 'tustin'")
     prep = aero_prep(a, dt_star, coupling)
     lam_a = res = None
     if coupling == "tustin":
-        abar = None if prep.abar is None else prep.abar.copy()
-        a, b, c, d = tustin_matrices(a, b, c, d, dt_star, lu=prep.lu, abar=abar, field="aero.A")
+        if not parts.continuous:
+            abar = None if prep.abar is None else prep.abar.copy()
+            a, b, c, d = tustin_matrices(a, b, c, d, dt_star, lu=prep.lu, abar=abar, field="aero.A")
         if prep.lam is not None and prep.w is not None and prep.wi is not None:
             lam_a, res = prep.lam, ((c @ prep.w).T[:, :, None] * (prep.wi @ b)[:, None, :]).reshape(-1, k * k)
-    return Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res, None, prep.poles)
+    return Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res, None, prep.poles,
+                 parts.d1, parts.d2)
 
 
 def tustin_to_continuous(
