@@ -8,6 +8,10 @@ Conventions of ``simulate`` (shared by the built-in UVLM, a transonic solver and
 - returns ``gac`` [T, m]: generalized aerodynamic coefficients f_i(t_n) = (1/q) * integral(dp * phi_i dS)
   (m^3 when shapes are in m), dp positive up, q = rho V^2 / 2.
 
+Frequency-domain solvers (``FrequencySolver.gaf``) return the harmonic counterpart: the complex GAC matrix
+H [nk, m, m] (m^3), H[k, i, j] = f_i per unit harmonic u_j (u = u_hat e^{i omega t}), at reduced frequencies
+k = omega b / V on b = c_ref / 2, with the same f_i and shapes as above.
+
 Nothing above this interface may depend on a particular solver's internals.
 """
 
@@ -65,6 +69,28 @@ class UnsteadySolver(Protocol):
         ...
 
 
+@runtime_checkable
+class FrequencySolver(Protocol):
+    """Frequency-domain unsteady aerodynamic solver: harmonic GAC of given shapes at reduced frequencies."""
+
+    name: str
+
+    def gaf(
+        self,
+        mesh: StandardMesh,
+        shapes: np.ndarray,
+        mach: float,
+        k_values: np.ndarray,
+        progress: ProgressFn | None = None,
+    ) -> np.ndarray:
+        """Complex GAC H [nk, m, m] (m^3) of shapes [N, m] (m) at reduced frequencies k = omega c_ref / (2 V)."""
+        ...
+
+    def info(self, mach: float) -> SolverInfo:
+        """Describe the solver and list warnings that apply to results at ``mach``."""
+        ...
+
+
 def check_mach(mach: float, upper: float = 0.999) -> float:
     """Validate a free-stream Mach number (0 <= M < upper); return it as float."""
     if not (isinstance(mach, int | float | np.floating | np.integer) and math.isfinite(mach)):
@@ -79,6 +105,23 @@ def check_dt_star(dt_star: float) -> float:
     if not (isinstance(dt_star, int | float | np.floating | np.integer) and math.isfinite(dt_star) and dt_star > 0):
         raise InputError("dt_star", f"must be a finite number > 0, got {dt_star!r}")
     return float(dt_star)
+
+
+def check_k_values(k_values: np.ndarray) -> np.ndarray:
+    """Validate reduced frequencies (1-D, non-empty, finite, >= 0, strictly ascending); return a float array."""
+    try:
+        arr = np.asarray(k_values, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("k_values", f"must be an array of numbers, got {k_values!r}") from None
+    if arr.ndim != 1 or arr.size == 0:
+        raise InputError("k_values", f"must be a non-empty 1-D array, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError("k_values", "must be finite")
+    if np.any(arr < 0.0):
+        raise InputError("k_values", f"must be >= 0, got {arr.min()!r}")
+    if np.any(np.diff(arr) <= 0.0):
+        raise InputError("k_values", "must be strictly ascending")
+    return arr
 
 
 def check_shapes(mesh: StandardMesh, shapes: np.ndarray) -> np.ndarray:
