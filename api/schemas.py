@@ -58,15 +58,21 @@ class JobRef(BaseModel):
 
 
 class RomRequest(_Strict):
-    """ROM training: one Mach (``mach``) or several (``machs``), solver and ARX orders (Mach 0: incompressible)."""
+    """ROM training: one Mach (``mach``) or several (``machs``), solver and ARX orders (Mach 0: incompressible).
+
+    ``solver``: "dlm" (default; doublet lattice, frequency domain, rational-function ROM), "uvlm" (time domain,
+    ARX ROM; exact for incompressible flow, its phase error grows above M 0.5) or "tsd" (transonic, when
+    installed). ``na``/``nb`` are the ARX orders of a time-domain solver (ignored, stored as 0, for "dlm").
+    """
 
     mach: FiniteFloat | None = Field(default=None, ge=0.0, lt=1.5)
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
-    solver: Literal["uvlm", "tsd"] = "uvlm"
+    solver: Literal["dlm", "uvlm", "tsd"] = "dlm"
     na: int = Field(default=8, ge=1, le=40)
     nb: int = Field(default=8, ge=1, le=40)
     basis_id: int | None = None
-    options: dict[str, Any] = Field(default_factory=dict, description="extra keyword settings of train_rom")
+    options: dict[str, Any] = Field(default_factory=dict, description="extra keyword settings of the solver's "
+                                    "training function (train_rfa_rom for dlm, train_rom for uvlm/tsd)")
 
     @model_validator(mode="after")
     def _one_mach_field(self) -> RomRequest:
@@ -105,6 +111,10 @@ class FlightFields(_Strict):
                                                                            "pressure (Pa; default 4 q_ref)")
 
 
+SOLVER_CHOICE = ("aerodynamic solver whose ROMs to use (ROMs of several solvers may be trained for one Mach; "
+                 "default: the dlm ROM where one is trained, else the newest ROM of that Mach)")
+
+
 class FlutterRequest(FlightFields):
     """One structure: design variables (by name or as a vector), or external modes, or an uploaded modes id."""
 
@@ -114,10 +124,11 @@ class FlutterRequest(FlightFields):
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
     method: Literal["rom-ams", "rom-pms"] = Field(
         default="rom-ams",
-        description="rom-ams: the trained basis ROMs (fast, synchronous). rom-pms: the reference -- an ARX model "
-        "identified on this structure's own modes at every Mach with the trained ROMs' solver settings; "
+        description="rom-ams: the trained basis ROMs (fast, synchronous). rom-pms: the reference -- a ROM "
+        "trained on this structure's own modes at every Mach with the trained ROMs' solver settings; "
         "a training-queue job (202 with job_id).")
     basis_id: int | None = Field(default=None, description="basis to use (default: the wing's active basis)")
+    solver: Literal["dlm", "uvlm", "tsd"] | None = Field(default=None, description=SOLVER_CHOICE)
     store: bool = Field(default=True, description="store the evaluation (V-g data, plots)")
 
     @model_validator(mode="after")
@@ -134,6 +145,7 @@ class BatchRequest(FlightFields):
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
     method: Literal["rom-ams"] = "rom-ams"
     basis_id: int | None = Field(default=None, description="basis to use (default: the wing's active basis)")
+    solver: Literal["dlm", "uvlm", "tsd"] | None = Field(default=None, description=SOLVER_CHOICE)
 
 
 class ActiveBasis(_Strict):

@@ -3,6 +3,7 @@
 The CLI (``romams basis/train/flutter/demo``) uses these functions; the service's Celery tasks do the
 same steps as jobs. Both read and write the one store (``romams.store``), so a basis or ROM built by
 one is found by the other (ROM identity = solver, ARX orders and training options, as in the API).
+``make_solver`` and ``rom_identity`` live in ``romams.services.training`` (re-exported here).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ import numpy as np
 
 from romams.services.evaluation import DEFAULT_MAC_THRESHOLD, DEFAULT_N_MODES, Models
 from romams.services.models import activate_first_basis, resolve_basis_id
+from romams.services.training import make_solver as make_solver  # re-exported
+from romams.services.training import quality_line, rom_identity, train
 from romams_core.basis import Basis, build_basis, build_basis_for_wing, snapshot
 from romams_core.mesh import StandardMesh, standard_mesh
 from romams_core.wing import WingDefinition, template
@@ -90,33 +93,10 @@ def ensure_basis(
     return int(bid), basis
 
 
-def rom_identity(solver: str = "uvlm", na: int = 8, nb: int = 8, options: Mapping[str, Any] | None = None) -> dict:
-    """Identity of a trained ROM besides (wing, basis, Mach): the same dict the HTTP API uses."""
-    return {"solver": str(solver), "na": int(na), "nb": int(nb), "options": dict(options or {})}
-
-
-def make_solver(name: str) -> Any:
-    """Unsteady aerodynamic solver by name: "uvlm", or "tsd" once the transonic solver is installed."""
-    if name == "uvlm":
-        from romams_core.aero.uvlm import UvlmSolver
-
-        return UvlmSolver()
-    if name == "tsd":
-        try:
-            from romams_core.aero.tsd import TsdSolver  # type: ignore[import-not-found]
-        except ImportError as exc:
-            raise ValueError("solver: the transonic small-disturbance solver is not available") from exc
-        return TsdSolver()
-    raise ValueError(f"solver: unknown solver {name!r} (available: 'uvlm')")
-
-
 def _train_one(args: tuple[StandardMesh, np.ndarray, float, dict[str, Any]]) -> Any:
     """Worker-process body: train one ROM (top level so it pickles)."""
-    from romams_core.training import train_rom
-
     mesh, shapes, mach, ident = args
-    return train_rom(mesh, shapes, mach, make_solver(ident["solver"]), na=ident["na"], nb=ident["nb"],
-                     **ident["options"])
+    return train(mesh, shapes, mach, ident)
 
 
 def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], processes: int | None = None) -> list[Any]:
@@ -165,7 +145,7 @@ def ensure_roms(
         for mach, rom in zip(missing, roms, strict=True):
             rid = store.roms.save(wing_id, basis_id, rom, ident)
             out[mach] = (int(rid), rom)
-            log(f"  M = {mach:g}: rom {rid}, validation NRMSE max {np.max(rom.validation_nrmse):.2e}, "
+            log(f"  M = {mach:g}: rom {rid}, {quality_line(rom)}, "
                 f"{rom.train_seconds:.1f} s")
         log(f"trained in {time.perf_counter() - t0:.1f} s wall")
     return {m: out[float(m)] for m in sorted(out)}

@@ -387,7 +387,9 @@ def solver_table(mesh: StandardMesh, shapes: np.ndarray, mach: float, solver: An
                  n_k: int, derivative: str = "exact") -> AeroTable:
     """AeroTable on k = 0 .. k_max (n_k points) from a frequency-domain solver (``.gaf``, the DLM) or the UVLM."""
     if solver is not None and hasattr(solver, "gaf"):
-        k = np.linspace(0.0, float(k_max), int(n_k))
+        # on the grid dk * i (dk = k_max / (n_k - 1)) rounded to 1e-9, so that tables of different structures
+        # share reduced frequencies and a caching solver (the DLM) reuses its factorized AICs
+        k = np.round(np.linspace(0.0, float(k_max), int(n_k)), 9)
         h = solver.gaf(mesh, shapes, mach, k)
         return AeroTable(k=k, h=h, mach=float(mach), description=solver.info(mach).description)
     return uvlm_table(mesh, shapes, mach, k_max=k_max, n_k=n_k, solver=solver, derivative=derivative)
@@ -441,8 +443,9 @@ def fom_flutter(
         raise InputError("sweep", f"fom_flutter supports 'constant-speed' and 'matched' (a constant-density sweep "
                                   f"starts at V -> 0, i.e. k -> infinity, beyond any table), got {sweep!r}")
     k_max = 1.3 * float(np.max(om)) * 0.5 * mesh.c_ref / v_min + 0.1
+    k_max = dk * math.ceil(k_max / dk)  # a multiple of dk: tables of different structures share their k values
     for attempt in range(3):  # a root beyond the table (aerodynamic stiffening) doubles the k range, twice at most
-        n_k = max(4, int(math.ceil(k_max / dk)) + 1)
+        n_k = max(4, int(round(k_max / dk)) + 1)
         table = solver_table(mesh, shapes, mach_f, solver, k_max, n_k, derivative)
         try:
             res = pk_flutter(om, table, mesh.c_ref, mach_f, sweep=sweep, zeta=zeta, **kwargs)

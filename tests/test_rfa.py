@@ -21,10 +21,20 @@ from romams_core.wing import template
 K = np.array([0.0, 0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.65, 0.8, 1.0, 1.25, 1.5, 1.75, 2.0])
 
 
-def _synthetic(m: int = 3, lags=(0.3, 1.7)) -> RogerRfa:
+def _synthetic(m: int = 3, lags=(0.3, 1.7), pairs=()) -> RogerRfa:
     rng = np.random.default_rng(4)
     mats = rng.normal(size=(3 + len(lags), m, m))
-    return RogerRfa(lags=np.array(lags), a0=mats[0], a1=mats[1], a2=0.1 * mats[2], a_lag=mats[3:])
+    return RogerRfa(lags=np.array(lags), a0=mats[0], a1=mats[1], a2=0.1 * mats[2], a_lag=mats[3:],
+                    pairs=np.array(pairs, complex), a_pair=rng.normal(size=(len(pairs), 2, m, m)))
+
+
+def test_fit_recovers_complex_lag_pairs():
+    """A model with one real lag and one complex pair (a wavy GAF) is found by the automatic choice (3 units)."""
+    true = _synthetic(lags=(0.5,), pairs=(1.0 + 2.0j,))
+    fit = fit_rfa(K, true(K), tol=1e-5)
+    assert fit.rfa.n_lags == 3 and fit.rfa.pairs.size == 1
+    assert fit.max_error < 1e-5
+    np.testing.assert_allclose(fit.rfa.pairs[0], 1.0 + 2.0j, rtol=1e-3)
 
 
 def test_fit_recovers_an_exact_roger_model():
@@ -44,7 +54,7 @@ def test_automatic_lag_choice_stops_at_the_tolerance():
 
 
 def test_realization_matches_the_rfa_and_modal_transform():
-    rfa = _synthetic()
+    rfa = _synthetic(pairs=(0.8 + 1.5j, 2.0 + 0.5j))
     ss = rfa.state_space()
     kk = np.linspace(0.0, 2.0, 9)
     np.testing.assert_allclose(ss.freqresp(kk), rfa(kk), rtol=1e-12, atol=1e-12)

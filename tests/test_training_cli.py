@@ -13,7 +13,8 @@ from romams.persistence import open_store
 def test_train_command_json_plots_and_store(data_dir):
     plots = data_dir / "plots"
     runner = CliRunner()
-    args = ["train", "--wing", "cropped-delta", "--mach", "0.87", "--n-steps", "1200", "--json", "--plot", str(plots)]
+    args = ["train", "--wing", "cropped-delta", "--mach", "0.87", "--solver", "uvlm", "--n-steps", "1200", "--json",
+            "--plot", str(plots)]
     res = runner.invoke(app, args)
     assert res.exit_code == 0, res.output
     rep = json.loads(res.stdout)
@@ -30,8 +31,34 @@ def test_train_command_json_plots_and_store(data_dir):
     np.testing.assert_allclose(rom.validation_nrmse, rep["validation_nrmse"], rtol=1e-12)
     assert rom.ss.is_stable()
     # the same request again finds the stored ROM instead of retraining
-    again = json.loads(runner.invoke(app, ["train", "--mach", "0.87", "--n-steps", "1200", "--json"]).stdout)
+    again = json.loads(runner.invoke(app, ["train", "--mach", "0.87", "--solver", "uvlm", "--n-steps", "1200",
+                                           "--json"]).stdout)
     assert again["rom_id"] == rep["rom_id"]
+
+
+def test_train_command_default_dlm_rational_function_rom(data_dir):
+    """The default solver is the doublet lattice: a GAF table fitted by an RFA (fit error <= 1 % per entry)."""
+    plots = data_dir / "plots-dlm"
+    runner = CliRunner()
+    res = runner.invoke(app, ["train", "--mach", "0.87", "--json", "--plot", str(plots)])
+    assert res.exit_code == 0, res.output
+    rep = json.loads(res.stdout)
+    assert rep["solver"] == "dlm" and rep["kind"] == "rfa" and rep["na"] == rep["nb"] == 0
+    assert rep["dt_star"] == 0.0 and rep["fit_error_max"] <= 0.01 and 1 <= rep["n_lags"] <= 8
+    assert len(rep["validation_nrmse"]) == rep["n_basis"] and max(rep["validation_nrmse"]) == rep["fit_error_max"]
+    (png,) = rep["plots"]
+    with open(png, "rb") as fh:
+        assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
+    rom = open_store().roms.load(rep["rom_id"])
+    assert rom.ss.is_stable() and rom.ss.D2 is not None
+    assert json.loads(runner.invoke(app, ["train", "--mach", "0.87", "--json"]).stdout)["rom_id"] == rep["rom_id"]
+    # ARX settings do not apply to the dlm, RFA settings not to the uvlm
+    bad = runner.invoke(app, ["train", "--mach", "0.87", "--n-steps", "1200"])
+    assert bad.exit_code == 2 and "ARX" in bad.output
+    bad = runner.invoke(app, ["train", "--mach", "0.87", "--solver", "uvlm", "--n-lags", "2"])
+    assert bad.exit_code == 2 and "--n-lags" in bad.output
+    bad = runner.invoke(app, ["train", "--mach", "0.87", "--solver", "vlm"])
+    assert bad.exit_code == 2 and "unknown solver" in bad.output
 
 
 def test_train_command_rejects_bad_input(data_dir):

@@ -6,9 +6,10 @@ this module and nothing from each other, so the worker package has no import cyc
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
-from romams.jobs import JobFailed, run_job
+from romams.jobs import JobFailed, ProgressFn, run_job
 from romams.persistence import JobStatus, Store, open_store
 from romams.settings import get_settings
 from worker.cache import LruCache
@@ -63,14 +64,17 @@ def load_rom(rom_id: int) -> Any:
     return OBJECTS.get_or_load(("rom", int(rom_id)), lambda: store().roms.load(int(rom_id)))
 
 
-def make_solver(name: str) -> Any:
-    """Unsteady solver instance by name (romams.pipeline.make_solver); an unknown one fails the job."""
-    from romams.pipeline import make_solver as _make
+def train_model(mesh: Any, shapes: Any, mach: float, ident: Mapping[str, Any], what: str,
+                progress: ProgressFn | None = None) -> Any:
+    """Train one ROM with identity ``ident`` (romams.services.training.train); a solver that is unknown or
+    unavailable, or an identification that fails, fails the job with a message starting with ``what``."""
+    from romams.services.training import train
+    from romams_core.training import TrainingError
 
     try:
-        return _make(name)
-    except ValueError as exc:
-        raise JobFailed(str(exc)) from exc
+        return train(mesh, shapes, float(mach), ident, progress=progress)
+    except (TrainingError, ValueError) as exc:
+        raise JobFailed(f"{what} failed: {exc}") from exc
 
 
 def chunk_outcome(s: Store, parent_id: str) -> list[dict[str, Any]] | None:

@@ -30,10 +30,10 @@ from worker.context import (
     load_mesh,
     load_rom,
     load_wing,
-    make_solver,
     run,
     settings,
     store,
+    train_model,
 )
 
 RESULTS = LruCache(settings.result_cache_size)  # content hash -> summary dict of one design
@@ -97,8 +97,6 @@ def evaluate_pms(wing_id: int, basis_id: int, rom_ids: list[list[float]], design
                  modes_id: int | None, progress: ProgressFn,
                  condition: FlightCondition | None = None) -> tuple[dict[str, Any], Any]:
     """ROM-PMS reference: train on the structure's own modes at each Mach with the stored ROMs' settings."""
-    from romams_core.training import TrainingError, train_rom
-
     condition = condition or FlightCondition()
     models = models_for(wing_id, basis_id, rom_ids)
     modes = None if modes_id is None else store().modes.load(int(modes_id))
@@ -108,12 +106,8 @@ def evaluate_pms(wing_id: int, basis_id: int, rom_ids: list[list[float]], design
     for i, (mach, rid) in enumerate(rom_ids):
         ident = rows[int(rid)]["params"]
         progress(i / len(rom_ids), f"ROM-PMS: training M = {mach:g} on the structure's own modes")
-        try:
-            own[float(mach)] = (int(rid), train_rom(models.mesh, modal.shapes, float(mach),
-                                                    make_solver(ident["solver"]), na=int(ident["na"]),
-                                                    nb=int(ident["nb"]), **dict(ident.get("options") or {})))
-        except TrainingError as exc:
-            raise JobFailed(f"ROM-PMS training at M = {mach:g} failed: {exc}") from exc
+        own[float(mach)] = (int(rid), train_model(models.mesh, modal.shapes, float(mach), ident,
+                                                  f"ROM-PMS training at M = {mach:g}"))
     return pms_summary(models, modal, own, condition, external=modes_id is not None, cache=OBJECTS.get_or_load)
 
 

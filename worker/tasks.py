@@ -13,12 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from romams.jobs import JobFailed, ProgressFn, send
+from romams.jobs import ProgressFn, send
 from romams.persistence import JobStatus
 from romams.pipeline import own_mode_basis
 from romams.services.models import activate_first_basis
 from worker.celery_app import app
-from worker.context import chunk_outcome, load_basis, load_mesh, load_wing, make_solver, run, settings, store
+from worker.context import chunk_outcome, load_basis, load_mesh, load_wing, run, settings, store, train_model
 
 
 # ---- basis ---------------------------------------------------------------------------------------
@@ -127,20 +127,14 @@ def basis_finalize(job_id: str) -> None:
 @app.task(name="romams.training.rom", acks_late=True, time_limit=settings.training_time_limit_s)
 def training_job(job_id: str) -> None:
     """Train the aerodynamic ROM of one Mach number on the basis shapes and store it."""
-    from romams_core.training import TrainingError, train_rom
 
     def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
         p = dict(job["params"])
         wing_id, basis_id = int(job["wing_id"]), int(p["basis_id"])
         basis = load_basis(basis_id)
         mesh = load_mesh(wing_id)
-        options = dict(p.get("options") or {})
         progress(0.0, f"training M = {p['mach']:.3f} with {p['solver']} on {basis.n_basis} basis shapes")
-        try:
-            rom = train_rom(mesh, basis.shapes, float(p["mach"]), make_solver(p["solver"]), na=int(p["na"]),
-                            nb=int(p["nb"]), progress=progress, **options)
-        except TrainingError as exc:
-            raise JobFailed(f"training failed: {exc}") from exc
+        rom = train_model(mesh, basis.shapes, float(p["mach"]), p["identity"], "training", progress)
         rid = store().roms.save(wing_id, basis_id, rom, p["identity"], job_id=job_id)
         nrmse = np.atleast_1d(np.asarray(getattr(rom, "validation_nrmse", np.nan), dtype=float))
         return {"rom_id": rid, "mach": float(p["mach"]), "validation_nrmse": nrmse.tolist()}

@@ -26,11 +26,11 @@ router = APIRouter(tags=["flutter"])
 
 
 def _basis_and_roms(svc: Service, wid: int, basis_id: int | None, machs: list[float] | None,
-                    field: str = "machs") -> tuple[int, list[list[float]]]:
+                    field: str = "machs", solver: str | None = None) -> tuple[int, list[list[float]]]:
     """Basis id (the wing's active one unless the request names one) and [(mach, rom_id)] to evaluate."""
     with svc.store.unit_of_work() as uow:  # one transaction for both reads
         bid = resolve_basis_id(uow, wid, basis_id)
-        return bid, trained_rom_ids(uow, wid, bid, machs, field)
+        return bid, trained_rom_ids(uow, wid, bid, machs, field, solver)
 
 
 def _condition(body: FlutterRequest | BatchRequest) -> FlightCondition:
@@ -107,7 +107,7 @@ def _row_outcome(job: dict[str, Any] | None) -> dict[str, Any] | None:
 def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = Depends(service)) -> Any:
     """Flutter evaluation of one structure at the trained (or given) Mach numbers; synchronous."""
     wid, w = wing_or_404(svc, wing)
-    bid, rom_ids = _basis_and_roms(svc, wid, body.basis_id, body.machs)
+    bid, rom_ids = _basis_and_roms(svc, wid, body.basis_id, body.machs, solver=body.solver)
     design = None
     modes_id = body.modes_id
     if body.modes is not None:
@@ -154,7 +154,7 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
     n = len(body.designs)
     if n > svc.settings.batch_max:
         raise Problem(413, f"designs: at most {svc.settings.batch_max} designs per batch, got {n}", "designs")
-    bid, rom_ids = _basis_and_roms(svc, wid, body.basis_id, body.machs)
+    bid, rom_ids = _basis_and_roms(svc, wid, body.basis_id, body.machs, solver=body.solver)
     vectors = [_design_vector(w, d, f"designs[{i}]") for i, d in enumerate(body.designs)]
     chunk = max(1, min(svc.settings.batch_chunk, math.ceil(n / 4)))
     condition = _condition(body).to_json()

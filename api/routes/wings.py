@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import math
 from typing import Any, Literal
 
@@ -15,11 +14,10 @@ from api.schemas import ActiveBasis, BasisRequest, Created, JobRef, RomRequest, 
 from romams.jobs import submit
 from romams.persistence import content_hash, rom_key
 from romams.services.models import resolve_basis_id
+from romams.services.training import allowed_options, available, rom_identity
 
 router = APIRouter(tags=["wings"])
 
-#: train_rom arguments set by the service itself (not allowed in ``options``)
-_RESERVED = {"mesh", "shapes", "mach", "solver", "na", "nb", "progress"}
 
 
 def wing_view(wid: int, wing: Any, svc: Service) -> dict[str, Any]:
@@ -123,22 +121,21 @@ def list_bases(wing: str, svc: Service = Depends(service)) -> list[dict[str, Any
     return out
 
 
-def _train_options(options: dict[str, Any]) -> dict[str, Any]:
-    """Validate extra train_rom keyword settings against its signature (names and JSON scalar values)."""
+def _train_options(solver: str, options: dict[str, Any]) -> dict[str, Any]:
+    """Validate extra training keyword settings of ``solver`` (names and JSON scalar values)."""
     if not options:
         return {}
-    from romams_core.training import train_rom
-
-    sig = inspect.signature(train_rom)
-    allowed = {n for n, p in sig.parameters.items() if p.kind is p.KEYWORD_ONLY or p.default is not p.empty}
-    allowed -= _RESERVED
+    allowed = allowed_options(solver)
     for k, v in options.items():
         if k not in allowed:
-            raise invalid(f"options.{k}", f"not a training setting; allowed: {sorted(allowed)}")
+            raise invalid(f"options.{k}", f"not a training setting of solver {solver!r}; allowed: {sorted(allowed)}")
         if isinstance(v, float) and not math.isfinite(v):
             raise invalid(f"options.{k}", "must be finite")
-        if not isinstance(v, bool | int | float | str | type(None)):
-            raise invalid(f"options.{k}", "must be a number, string, boolean or null")
+        if isinstance(v, list):  # a table (e.g. k_values of the dlm): finite numbers only
+            if not all(isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x) for x in v):
+                raise invalid(f"options.{k}", "a list must hold finite numbers only")
+        elif not isinstance(v, bool | int | float | str | type(None)):
+            raise invalid(f"options.{k}", "must be a number, a list of numbers, a string, a boolean or null")
     return dict(sorted(options.items()))
 
 
@@ -147,18 +144,15 @@ def start_training(wing: str, body: RomRequest, response: Response, svc: Service
     """Train ROMs: one job per Mach; an identical request returns the existing model or the running job."""
     wid, _ = wing_or_404(svc, wing)
     basis_id = resolve_basis_id(svc.store, wid, body.basis_id)
-    if body.solver == "uvlm":
+    if body.solver in ("uvlm", "dlm"):
         bad = [m for m in ([body.mach] if body.mach is not None else body.machs or []) if m >= 1.0]
         if bad:
             raise invalid("mach" if body.mach is not None else "machs",
-                          f"the linear UVLM is subsonic only (Mach < 1), got {bad[0]}")
-    if body.solver == "tsd":
-        import importlib.util
-
-        if importlib.util.find_spec("romams_core.aero.tsd") is None:
-            raise invalid("solver", "the transonic small-disturbance solver is not available on this server")
-    options = _train_options(body.options)
-    identity = {"solver": body.solver, "na": body.na, "nb": body.nb, "options": options}
+                          f"the linear {body.solver.upper()} is subsonic only (Mach < 1), got {bad[0]}")
+    if not available(body.solver):
+        raise invalid("solver", f"the solver {body.solver!r} is not available on this server")
+    options = _train_options(body.solver, body.options)
+    identity = rom_identity(body.solver, body.na, body.nb, options)
     machs = [float(body.mach)] if body.mach is not None else [float(m) for m in body.machs or []]
     if len({round(m, 6) for m in machs}) != len(machs):
         raise invalid("machs", "contains duplicates")

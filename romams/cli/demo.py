@@ -16,6 +16,7 @@ from romams.cli.app import app
 from romams.pipeline import PAPER_MACHS, ensure_basis, ensure_roms, resolve_wing, rom_identity, train_shapes
 from romams.services.evaluation import Models, evaluate, pms_summary, result_row
 from romams.services.flight import DEFAULT_CONDITION
+from romams.services.training import DEFAULT_SOLVER, SOLVERS, available, is_frequency_solver, quality_line
 
 #: Two contrasting designs of the cropped delta wing (like the paper's var1 and var2): var1 has a beam far
 #: aft, a heavy outboard leading-edge mass and a thin plate (its flutter boundary drops below the
@@ -92,6 +93,8 @@ def demo_command(
     quick: bool = typer.Option(False, "--quick", help="coarser settings (for CI): fewer samples, shorter signals"),
     out: Path = typer.Option(Path("demo-out"), "--out", help="output directory for summary.json and plots"),
     processes: int = typer.Option(0, "--processes", min=0, help="parallel training processes (0: CPU count)"),
+    solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver of the ROMs: dlm (default) "
+                               "or uvlm"),
 ) -> None:
     """Run the ROM-AMS pipeline on the cropped delta wing and write DIR/summary.json plus plots."""
     from romams.persistence import open_store
@@ -103,7 +106,9 @@ def demo_command(
     out.mkdir(parents=True, exist_ok=True)
     procs = processes or os.cpu_count() or 1
     samples = 12 if quick else 25
-    ident = rom_identity("uvlm", 8, 8)
+    if solver not in SOLVERS or not available(solver):
+        raise typer.BadParameter(f"unknown or unavailable solver {solver!r}", param_hint="--solver")
+    ident = rom_identity(solver, 8, 8)
     condition = DEFAULT_CONDITION  # the service's default: constant speed V = M a(10 km), q swept (the paper's)
     machs = list(PAPER_MACHS)
     timings: dict[str, Any] = {}
@@ -125,14 +130,15 @@ def demo_command(
     mac_table = np.asarray(basis.mac_table).reshape(-1, 4) if np.size(basis.mac_table) % 4 == 0 else None
     log(f"{basis.n_basis} basis shapes, worst snapshot MAC {basis.min_mac:.5f}")
 
-    log.step(f"3. ARX ROM per Mach ({len(machs)} trainings, {min(procs, len(machs))} in parallel)")
+    kind = "rational-function (RFA)" if is_frequency_solver(solver) else "ARX"
+    log.step(f"3. {solver.upper()} {kind} ROM per Mach ({len(machs)} trainings, {min(procs, len(machs))} in parallel)")
     t = time.perf_counter()
     roms = ensure_roms(store, wing_id, wing, basis_id, basis, machs, ident=ident, processes=procs, log=log)
     timings["training_wall_s"] = time.perf_counter() - t
     timings["training_per_mach_s"] = float(np.mean([r.train_seconds for _, r in roms.values()]))
     models = Models(wing_id, wing, mesh, basis_id, basis, roms)
     for m, (rid, r) in roms.items():
-        log(f"M = {m:.2f}: rom {rid}, {r.ss.A.shape[0]} states, validation NRMSE max {np.max(r.validation_nrmse):.2e}")
+        log(f"M = {m:.2f}: rom {rid}, {quality_line(r)}")
 
     baseline_eval = evaluate(models, base, condition)
     log("benchmark envelope (baseline): " + ", ".join(
@@ -154,7 +160,7 @@ def demo_command(
         rows = []
         for ams, ref in zip(ev.flutter, pms["results"], strict=True):
             # accuracy in flutter speed: EAS (sqrt(q_f)); on a constant-speed sweep the true speed is M a_ref
-            row = result_row(ams)
+            row = result_row(ams, None, *models.roms[float(ams.mach)])
             row["v_eas_pms_m_s"] = ref["v_eas_m_s"]
             row["v_flutter_pms_m_s"] = ref["v_flutter_m_s"]
             row["omega_flutter_pms_rad_s"] = ref["omega_flutter_rad_s"]
@@ -204,12 +210,13 @@ def demo_command(
         "machs": machs,
         "baseline": {"frequencies_hz": [float(f) for f in base.frequencies_hz], "mass_kg": float(base.mass_kg),
                      "envelope": _envelope_json(baseline_eval.envelope),
-                     "results": [result_row(r) for r in baseline_eval.flutter]},
+                     "results": [result_row(r, None, *models.roms[float(r.mach)]) for r in baseline_eval.flutter]},
         "basis": {"n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac), "samples": samples, "modes": 4,
                   "mac_threshold": float(basis.mac_threshold),
                   "mac_table": None if mac_table is None else np.round(mac_table, 6).tolist()},
-        "roms": [{"mach": m, "rom_id": rid, "validation_nrmse": [float(x) for x in r.validation_nrmse],
-                  "states": int(r.ss.A.shape[0]), "train_seconds": float(r.train_seconds)}
+        "roms": [{"mach": m, "rom_id": rid, "solver": r.solver,
+                  "validation_nrmse": [float(x) for x in r.validation_nrmse], "states": int(r.ss.A.shape[0]),
+                  "train_seconds": float(r.train_seconds)}
                  for m, (rid, r) in roms.items()],
         "designs": design_rows,
         "timings": timings,

@@ -18,6 +18,7 @@ from romams.cli.modal import parse_design
 from romams.services.errors import ServiceError
 from romams.services.evaluation import DEFAULT_MAC_THRESHOLD, DEFAULT_N_MODES
 from romams.services.flight import FlightCondition
+from romams.services.training import DEFAULT_SOLVER, SOLVERS, available
 
 
 def external_modes(modes_file: Path, bdf: Path | None) -> Any:
@@ -73,7 +74,9 @@ def flutter_command(
                                 help="modes per structure if the basis must be built"),
     samples: int = typer.Option(25, "--samples", min=1, help="LHS samples if the basis must be built"),
     mac: float = typer.Option(DEFAULT_MAC_THRESHOLD, "--mac", help="basis MAC threshold if the basis must be built"),
-    na: int = typer.Option(8, "--na", min=1, max=40),
+    solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver of the ROMs: dlm (doublet "
+                               "lattice, default), uvlm, or tsd when installed (trained when missing)"),
+    na: int = typer.Option(8, "--na", min=1, max=40, help="ARX orders (time-domain solvers)"),
     nb: int = typer.Option(8, "--nb", min=1, max=40),
     plot: Path | None = typer.Option(None, "--plot", help="write V-g / V-omega plots (PNG and SVG) here"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
@@ -87,7 +90,7 @@ def flutter_command(
         raise typer.BadParameter("must be rom-ams or rom-pms", param_hint="--method")
     for m in mach:
         if not (math.isfinite(m) and 0.0 <= m < 1.0):
-            raise typer.BadParameter(f"{m!r}: must be in [0, 1) for the built-in subsonic solver", param_hint="--mach")
+            raise typer.BadParameter(f"{m!r}: must be in [0, 1) for the built-in subsonic solvers", param_hint="--mach")
     if not 0.0 < mac < 1.0:
         raise typer.BadParameter("must be in (0, 1)", param_hint="--mac")
     condition = flight_condition(density, altitude, matched, sweep, v_max)
@@ -103,7 +106,10 @@ def flutter_command(
     values = parse_design(design) if design is not None else None
     modes = external_modes(modes_file, bdf) if modes_file is not None else None
     machs = sorted(set(float(m) for m in mach))
-    ident = rom_identity("uvlm", na, nb)
+    if solver not in SOLVERS or not available(solver):
+        raise typer.BadParameter(f"unknown or unavailable solver {solver!r}; one of "
+                                 f"{', '.join(x for x in SOLVERS if available(x))}", param_hint="--solver")
+    ident = rom_identity(solver, na, nb)
     try:
         models = cli_models(store, wing_id, w, machs, ident, basis_id=basis_id, samples=samples, modes=n_modes,
                             mac_threshold=mac)

@@ -10,6 +10,7 @@ import typer
 
 from romams.cli.app import app
 from romams.pipeline import ensure_basis, ensure_roms, resolve_wing, rom_identity
+from romams.services.training import DEFAULT_SOLVER, SOLVERS, is_frequency_solver, quality_line
 
 
 def _reduce_option(value: str | None) -> int | str | None:
@@ -31,12 +32,14 @@ def _reduce_option(value: str | None) -> int | str | None:
 def train_command(
     wing: str = typer.Option("cropped-delta", "--wing", help="stored wing name / id, or a template name"),
     mach: float = typer.Option(0.87, "--mach", min=0.0, max=0.99, help="free-stream Mach number"),
-    solver: str = typer.Option("uvlm", "--solver", help="unsteady aerodynamic solver"),
-    na: int = typer.Option(8, "--na", min=0, max=64, help="ARX output delay order"),
-    nb: int = typer.Option(8, "--nb", min=1, max=64, help="ARX input delay order"),
-    reduce: str | None = typer.Option(None, "--reduce", help="balanced truncation: 'auto' or a state count"),
-    n_steps: int | None = typer.Option(None, "--n-steps", min=16, help="signal length (steps); default automatic"),
-    seed: int = typer.Option(0, "--seed", help="seed of the excitation signals"),
+    solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver: dlm (doublet lattice, "
+                               "rational-function ROM), uvlm (time domain, ARX ROM) or tsd (when installed)"),
+    na: int = typer.Option(8, "--na", min=0, max=64, help="ARX output delay order (time-domain solvers)"),
+    nb: int = typer.Option(8, "--nb", min=1, max=64, help="ARX input delay order (time-domain solvers)"),
+    reduce: str | None = typer.Option(None, "--reduce", help="ARX: balanced truncation, 'auto' or a state count"),
+    n_steps: int | None = typer.Option(None, "--n-steps", min=16, help="ARX: signal length (steps)"),
+    seed: int = typer.Option(0, "--seed", help="ARX: seed of the excitation signals"),
+    n_lags: int | None = typer.Option(None, "--n-lags", min=0, max=12, help="dlm: RFA lag roots (default: automatic)"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
     plot: Path | None = typer.Option(None, "--plot", help="write PNG figures (signals, validation) here"),
 ) -> None:
@@ -44,6 +47,8 @@ def train_command(
     from romams.persistence import open_store
     from romams_core.training import TrainingError
 
+    if solver not in SOLVERS:
+        raise typer.BadParameter(f"unknown solver {solver!r}; one of {', '.join(SOLVERS)}", param_hint="--solver")
     options: dict[str, Any] = {}
     red = _reduce_option(reduce)
     if red is not None:
@@ -52,6 +57,14 @@ def train_command(
         options["n_steps"] = n_steps
     if seed:
         options["seed"] = seed
+    if is_frequency_solver(solver):
+        if options:
+            raise typer.BadParameter(f"{', '.join(options)}: ARX settings do not apply to {solver}",
+                                     param_hint="--reduce/--n-steps/--seed")
+        if n_lags is not None:
+            options["n_lags"] = n_lags
+    elif n_lags is not None:
+        raise typer.BadParameter(f"applies to a frequency-domain solver (dlm), not {solver}", param_hint="--n-lags")
     store = open_store()
     try:
         wing_id, w = resolve_wing(store, wing)
@@ -79,9 +92,12 @@ def train_command(
         "na": rom.na,
         "nb": rom.nb,
         "n_states": rom.ss.n_states,
-        "dt_star": rom.dt_star,
+        "dt_star": getattr(rom, "dt_star", 0.0),  # 0: a continuous (rational-function) ROM
         "warnings": list(rom.warnings),
     }
+    if is_frequency_solver(rom.solver):
+        report.update(kind="rfa", n_lags=rom.n_lags, fit_error_max=rom.max_fit_error,
+                      k_max=float(rom.k_values[-1]), solver_seconds=round(float(rom.solver_seconds), 3))
     if plot is not None:
         report["plots"] = _write_plots(plot, rom)
     if as_json:
@@ -89,8 +105,8 @@ def train_command(
         return
     for msg in rom.warnings:
         typer.echo(f"warning: {msg}", err=True)
-    typer.echo(f"rom {rom_id}: M = {rom.mach:g}, {rom.n_basis} basis shapes, {rom.ss.n_states} states, "
-               f"max validation NRMSE {max(report['validation_nrmse']):.2e}, trained in {rom.train_seconds:.1f} s")
+    typer.echo(f"rom {rom_id}: M = {rom.mach:g}, {rom.solver}, {rom.n_basis} basis shapes, {quality_line(rom)}, "
+               f"trained in {rom.train_seconds:.1f} s")
 
 
 def _write_plots(directory: Path, rom: Any) -> list[str]:
@@ -98,6 +114,12 @@ def _write_plots(directory: Path, rom: Any) -> list[str]:
     from romams.plots.training import plot_signals, plot_validation, save
 
     directory.mkdir(parents=True, exist_ok=True)
+    if is_frequency_solver(rom.solver):
+        from romams.plots.training import plot_rfa_fit
+
+        path = directory / f"training_rfa_M{rom.mach:g}.png"
+        save(plot_rfa_fit(rom), str(path))
+        return [str(path)]
     paths = [directory / f"training_signals_M{rom.mach:g}.png", directory / f"training_validation_M{rom.mach:g}.png"]
     save(plot_signals(rom), str(paths[0]))
     save(plot_validation(rom), str(paths[1]))

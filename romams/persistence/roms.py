@@ -48,11 +48,11 @@ class RomRepository(Repository):
         rid = self.find_id(wing_id, basis_id, mach, params)
         return None if rid is None else (rid, self.load(rid))
 
-    def index(self, wing_id: int, basis_id: int) -> list[tuple[int, float]]:
-        """(id, mach) of every ROM trained on a basis of a wing, oldest first (one narrow query)."""
-        rows = self._session.execute(select(RomRow.id, RomRow.mach).where(
+    def index(self, wing_id: int, basis_id: int) -> list[tuple[int, float, str]]:
+        """(id, mach, solver) of every ROM trained on a basis of a wing, oldest first (one narrow query)."""
+        rows = self._session.execute(select(RomRow.id, RomRow.mach, RomRow.solver).where(
             RomRow.wing_id == int(wing_id), RomRow.basis_id == int(basis_id)).order_by(RomRow.id))
-        return [(int(r.id), float(r.mach)) for r in rows]
+        return [(int(r.id), float(r.mach), str(r.solver)) for r in rows]
 
     def of_wing(self, wing_id: int, basis_id: int | None = None) -> list[dict[str, Any]]:
         """ROMs of a wing (optionally one basis), by Mach: id, basis_id, mach, solver, params, summary."""

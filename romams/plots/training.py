@@ -1,4 +1,5 @@
-"""Figures of a ROM training run: excitation signals (paper Fig. 12), solver vs ROM on validation (Fig. 13)."""
+"""Figures of a ROM training run: excitation signals (paper Fig. 12), solver vs ROM on validation (Fig. 13),
+and for a rational-function ROM the solver's GAF table against the fit."""
 
 from __future__ import annotations
 
@@ -53,6 +54,30 @@ def plot_validation(rom: Any, window: float | None = 60.0) -> Figure:
     axes[-1].set_xlabel("t* = t V / c_ref")
     fig.suptitle(f"validation: GAC of {ref.shape[1]} shapes (M = {rom.mach:g}, na = {rom.na}, nb = {rom.nb}, "
                  f"{rom.ss.n_states} states)", fontsize=10)
+    return fig
+
+
+def plot_rfa_fit(rom: Any, entries: int = 4) -> Figure:
+    """Real and imaginary parts of the diagonal GAF H_ii(k) of the first ``entries`` shapes: table vs RFA fit."""
+    k = np.asarray(rom.k_values)
+    kk = np.linspace(0.0, float(k[-1]) * 1.25, 200)
+    fit = rom.rfa(kk)
+    n = min(entries, rom.n_basis)
+    fig = Figure(figsize=(7.5, max(2.5, 1.6 * n + 0.8)), layout="constrained")
+    axes = fig.subplots(n, 2, sharex=True, squeeze=False)
+    for i in range(n):
+        for j, (part, name) in enumerate(((np.real, "Re"), (np.imag, "Im"))):
+            ax = axes[i, j]
+            ax.plot(k, part(rom.gaf[:, i, i]), "o", ms=3, color="C0", label=rom.solver)
+            ax.plot(kk, part(fit[:, i, i]), lw=1.0, color="C1", label=f"RFA ({rom.n_lags} lags)")
+            ax.set_ylabel(f"{name} H{i + 1}{i + 1}", fontsize=8)
+            ax.tick_params(labelsize=7)
+            ax.set_title(f"entry error {rom.fit_error[i, i]:.1e}", fontsize=7)
+    axes[0, 0].legend(fontsize=7)
+    for ax in axes[-1]:
+        ax.set_xlabel("k = omega b / V")
+    fig.suptitle(f"{rom.solver} GAF and its RFA (M = {rom.mach:g}, worst entry error {rom.max_fit_error:.1e})",
+                 fontsize=10)
     return fig
 
 

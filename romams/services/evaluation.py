@@ -166,8 +166,11 @@ def _f(x: Any) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def result_row(r: Any, env: Any = None, rom_id: int | None = None) -> dict[str, Any]:
-    """JSON row of one Mach's FlutterResult (speeds in m/s: true airspeed and EAS; q in Pa; omega in rad/s)."""
+def result_row(r: Any, env: Any = None, rom_id: int | None = None, rom: Any = None) -> dict[str, Any]:
+    """JSON row of one Mach's FlutterResult (speeds in m/s: true airspeed and EAS; q in Pa; omega in rad/s).
+
+    ``rom`` (the ROM the result came from) names the aerodynamic solver and carries its warnings.
+    """
     idx = np.array([], dtype=int)
     if env is not None:
         idx = np.flatnonzero(np.isclose(np.asarray(env.mach, dtype=float), float(r.mach), rtol=0, atol=1e-9))
@@ -191,10 +194,18 @@ def result_row(r: Any, env: Any = None, rom_id: int | None = None) -> dict[str, 
         "rho_ref_kg_m3": _f(r.rho_ref),
         "a_ref_m_s": _f(r.a_ref),
         "rom_id": rom_id,
+        "solver": getattr(rom, "solver", None),
+        "aero_warnings": [str(w) for w in getattr(rom, "warnings", [])],
         "safe_altitude_m": _f(env.safe_altitude_m[idx[0]]) if idx.size else None,
         "envelope_status": env.status[idx[0]] if idx.size else None,
         "message": r.message,
     }
+
+
+def _rom_entry(models: Models, mach: float) -> tuple[int | None, Any]:
+    """(rom_id, rom) of a Mach's ROM in ``models`` ((None, None) when absent)."""
+    entry = models.roms.get(float(mach))
+    return (None, None) if entry is None else (int(entry[0]), entry[1])
 
 
 def summarize(result: Any, models: Models, condition: FlightCondition = DEFAULT_CONDITION, *,
@@ -205,8 +216,7 @@ def summarize(result: Any, models: Models, condition: FlightCondition = DEFAULT_
     min_mac = float(result.min_mac)
     est = fit_error_estimate(min_mac) if method == "rom-ams" else 0.0
     fit_ok = bool(result.mac_ok)
-    rows = [result_row(r, env, int(models.roms[float(r.mach)][0]) if float(r.mach) in models.roms else None)
-            for r in result.flutter]
+    rows = [result_row(r, env, *_rom_entry(models, r.mach)) for r in result.flutter]
     out = {
         "wing": models.wing.name,
         "wing_id": int(models.wing_id),

@@ -4,7 +4,7 @@ A wing has one *active* basis. The first basis built for a wing becomes active; 
 by itself (so building a basis, e.g. ``romams basis``, never changes what a running service answers),
 only an explicit activation (``PUT /api/v1/wings/{id}/active-basis``, ``romams basis --activate``).
 A request may name another basis of the wing (``basis_id``). On a basis, the ROM of each Mach is the
-newest one trained for it.
+newest one trained for it with the requested solver (default: the dlm ROM where one exists, else the newest).
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from typing import Any
 
 from romams.services.errors import Conflict, InvalidInput, NotFound
 from romams.services.evaluation import Models
+from romams.services.training import DEFAULT_SOLVER
 
 
 def resolve_basis_id(store: Any, wing_id: int, basis_id: int | None = None) -> int:
@@ -30,20 +31,33 @@ def resolve_basis_id(store: Any, wing_id: int, basis_id: int | None = None) -> i
 
 
 def trained_rom_ids(store: Any, wing_id: int, basis_id: int, machs: Sequence[float] | None = None,
-                    field: str = "machs") -> list[list[float]]:
-    """[(mach, rom_id)] of the newest ROM of each requested (default: every trained) Mach on the basis."""
+                    field: str = "machs", solver: str | None = None) -> list[list[float]]:
+    """[(mach, rom_id)] of each requested (default: every trained) Mach on the basis.
+
+    ``solver`` given: the newest ROM of that solver. Otherwise the newest ROM of the default solver (dlm) where
+    one is trained, else the newest of any solver (ROMs of several solvers coexist for one Mach).
+    """
     trained: dict[float, int] = {}
-    for rid, mach in store.roms.index(wing_id, basis_id):  # oldest first: the newest of each Mach wins
+    preferred: dict[float, int] = {}
+    for rid, mach, rom_solver in store.roms.index(wing_id, basis_id):  # oldest first: the newest of each Mach wins
+        if solver is not None and rom_solver != solver:
+            continue
         trained[round(mach, 6)] = rid
+        if rom_solver == DEFAULT_SOLVER:
+            preferred[round(mach, 6)] = rid
+    trained.update(preferred)
     if not trained:
-        raise Conflict(field, f"no ROM is trained on basis {basis_id}; POST /api/v1/wings/{wing_id}/roms first")
+        what = "no ROM" if solver is None else f"no {solver} ROM"
+        raise Conflict("solver" if solver is not None else field,
+                       f"{what} is trained on basis {basis_id}; POST /api/v1/wings/{wing_id}/roms first")
     if machs is None:
         return [[m, trained[m]] for m in sorted(trained)]
     out = []
     for i, m in enumerate(machs):
         key = round(float(m), 6)
         if key not in trained:
-            raise InvalidInput(f"{field}[{i}]", f"Mach {m} is not trained on basis {basis_id}; "
+            what = "" if solver is None else f" with solver {solver}"
+            raise InvalidInput(f"{field}[{i}]", f"Mach {m} is not trained{what} on basis {basis_id}; "
                                                 f"trained: {sorted(trained)}")
         out.append([key, trained[key]])
     if len({m for m, _ in out}) != len(out):

@@ -23,11 +23,13 @@ omega / V per grid unit: it receives k unit / b.
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 
 from romams_core.aero.protocol import (
@@ -55,6 +57,12 @@ __all__ = [
 _BOX_KEYS = ("offset_l", "offset_k", "offset_P1", "offset_P3", "N", "A", "l")
 #: Grid units per reference chord (see the module docstring).
 _UNITS_PER_CHORD = 1000.0
+#: Bounded caches (least recently used dropped first): assembled systems per (lattice, Mach) and factorized
+#: AICs per (lattice, Mach, k). The sizes bound memory (K = 560 boxes: 5 MB per factorization).
+SYSTEM_CACHE_SIZE = 6
+LU_CACHE_SIZE = 48
+_SYSTEM_CACHE: dict[tuple[Any, ...], DlmSystem] = {}
+_LU_CACHE: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray]] = {}
 #: Tile edge of the AIC blocks handed to panelaero (its kernels are square [n, n] arrays; tiles bound memory).
 _TILE = 300
 
@@ -156,10 +164,24 @@ class DlmSystem:
     ddx_colloc: sp.csr_matrix = field(repr=False)  # [K, N] d/dx of the shape at collocation points (1/m)
     interp_load: sp.csr_matrix = field(repr=False)  # [K, N] shape value at load points (1/4-chord midpoints)
 
+    key: tuple[Any, ...] = ()  # lattice fingerprint and Mach: the key of the factorized-AIC cache
+
     @property
     def n_boxes(self) -> int:
         """Box count K of the half wing."""
         return int(self.grid["n"])
+
+    def lu(self, k: float) -> tuple[np.ndarray, np.ndarray]:
+        """LU factors of the symmetric AIC at reduced frequency k, from the bounded module cache when present."""
+        key = (*self.key, float(k))
+        hit = _LU_CACHE.pop(key, None) if self.key else None
+        if hit is None:
+            hit = sla.lu_factor(self.aic(float(k)))
+        if self.key:
+            _LU_CACHE[key] = hit  # most recent last
+            while len(_LU_CACHE) > LU_CACHE_SIZE:
+                _LU_CACHE.pop(next(iter(_LU_CACHE)))
+        return hit
 
     @property
     def area(self) -> np.ndarray:
@@ -191,7 +213,7 @@ class DlmSystem:
         for n, k in enumerate(k_values):  # one AIC and one solve per reduced frequency
             if progress is not None:
                 progress(n / k_values.size, f"DLM reduced frequency {n + 1}/{k_values.size} (k = {k:g})")
-            out[n] = np.linalg.solve(self.aic(float(k)), self.wash(shapes, float(k)))
+            out[n] = sla.lu_solve(self.lu(float(k)), self.wash(shapes, float(k)))
         if progress is not None:
             progress(1.0, "DLM done")
         return out
@@ -203,9 +225,33 @@ class DlmSystem:
         return np.einsum("pi,npj->nij", phi_a, cp)
 
 
+def _fingerprint(mesh: StandardMesh) -> tuple[Any, ...]:
+    """Hashable identity of a lattice mesh (node coordinates and counts)."""
+    xy = np.ascontiguousarray(np.column_stack([mesh.x, mesh.y]), dtype=float)
+    return (mesh.n_chord, mesh.n_span, hashlib.sha1(xy.tobytes()).hexdigest())
+
+
 def build_dlm(mesh: StandardMesh, mach: float) -> DlmSystem:
-    """Assemble the DLM of ``mesh`` (one box per panel, no refinement) at subsonic ``mach``; steady AIC included."""
+    """Assemble the DLM of ``mesh`` (one box per panel, no refinement) at subsonic ``mach``; steady AIC included.
+
+    Systems of the same lattice and Mach are cached (``SYSTEM_CACHE_SIZE``), and so are the factorized AICs of
+    each reduced frequency (``LU_CACHE_SIZE``, about 5 MB each on the default cropped-delta lattice): a second set
+    of shapes on the same wing and Mach (ROM-PMS, the full-order p-k) costs only the solves.
+    """
     mach = check_mach(mach, upper=1.0)
+    key = (*_fingerprint(mesh), mach)
+    cached = _SYSTEM_CACHE.pop(key, None)
+    if cached is None:
+        cached = _build_dlm(mesh, mach)
+        cached.key = key
+    _SYSTEM_CACHE[key] = cached
+    while len(_SYSTEM_CACHE) > SYSTEM_CACHE_SIZE:
+        _SYSTEM_CACHE.pop(next(iter(_SYSTEM_CACHE)))
+    return cached
+
+
+def _build_dlm(mesh: StandardMesh, mach: float) -> DlmSystem:
+    """Assemble the DLM of ``mesh`` at ``mach`` (no cache)."""
     grid = build_aerogrid(mesh)
     full = mirror_aerogrid(grid)
     n = grid["n"]

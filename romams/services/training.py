@@ -1,0 +1,102 @@
+"""Training of one aerodynamic ROM by solver name: the one dispatch the CLI, the demo, the API and the worker use.
+
+Two kinds of solver stand behind the names:
+- frequency-domain ("dlm", the default): generalized aerodynamic forces on a reduced-frequency table, fitted by
+  a rational function approximation (``romams_core.training_rfa.train_rfa_rom``), a continuous ROM;
+- time-domain ("uvlm"; "tsd" once installed): a multisine march identified by ARX
+  (``romams_core.training.train_rom``), a discrete ROM.
+
+A ROM's identity (besides wing, basis and Mach) is ``{"solver", "na", "nb", "options"}``; the ARX orders are 0
+for a frequency-domain solver, whatever was asked, so that equal requests find the same ROM.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import inspect
+from collections.abc import Callable, Mapping
+from typing import Any
+
+#: Solver of a new ROM when none is named.
+DEFAULT_SOLVER = "dlm"
+FREQUENCY_SOLVERS = ("dlm",)
+TIME_SOLVERS = ("uvlm", "tsd")
+SOLVERS = FREQUENCY_SOLVERS + TIME_SOLVERS
+#: train-function arguments set by the service itself (not allowed in a request's ``options``)
+RESERVED_OPTIONS = frozenset({"mesh", "shapes", "mach", "solver", "na", "nb", "progress"})
+
+
+def is_frequency_solver(name: str) -> bool:
+    """True for a frequency-domain solver (trained by an RFA)."""
+    return name in FREQUENCY_SOLVERS
+
+
+def available(name: str) -> bool:
+    """True when the solver can run on this installation (the transonic solver is optional)."""
+    if name == "tsd":
+        return importlib.util.find_spec("romams_core.aero.tsd") is not None
+    return name in SOLVERS
+
+
+def make_solver(name: str) -> Any:
+    """Aerodynamic solver by name: "dlm", "uvlm", or "tsd" once the transonic solver is installed."""
+    if name == "dlm":
+        from romams_core.aero.dlm import DlmSolver
+
+        return DlmSolver()
+    if name == "uvlm":
+        from romams_core.aero.uvlm import UvlmSolver
+
+        return UvlmSolver()
+    if name == "tsd":
+        try:
+            from romams_core.aero.tsd import TsdSolver  # type: ignore[import-not-found]
+        except ImportError as exc:
+            raise ValueError("solver: the transonic small-disturbance solver is not available") from exc
+        return TsdSolver()
+    raise ValueError(f"solver: unknown solver {name!r} (available: {', '.join(s for s in SOLVERS if available(s))})")
+
+
+def rom_identity(solver: str = DEFAULT_SOLVER, na: int = 8, nb: int = 8,
+                 options: Mapping[str, Any] | None = None) -> dict:
+    """Identity of a trained ROM besides (wing, basis, Mach): the same dict the HTTP API stores."""
+    if is_frequency_solver(solver):
+        na = nb = 0
+    return {"solver": str(solver), "na": int(na), "nb": int(nb), "options": dict(options or {})}
+
+
+def train_function(solver: str) -> Callable[..., Any]:
+    """The core training function of a solver's kind."""
+    if is_frequency_solver(solver):
+        from romams_core.training_rfa import train_rfa_rom
+
+        return train_rfa_rom
+    from romams_core.training import train_rom
+
+    return train_rom
+
+
+def allowed_options(solver: str) -> set[str]:
+    """Names of the keyword settings a request may pass in ``options`` for ``solver``."""
+    sig = inspect.signature(train_function(solver))
+    names = {n for n, p in sig.parameters.items() if p.kind is p.KEYWORD_ONLY or p.default is not p.empty}
+    return names - RESERVED_OPTIONS
+
+
+def train(mesh: Any, shapes: Any, mach: float, ident: Mapping[str, Any],
+          progress: Callable[[float, str], None] | None = None) -> Any:
+    """Train the ROM of ``shapes`` [N, m] at ``mach`` with identity ``ident``: a TrainedRfaRom or a TrainedRom."""
+    solver = str(ident["solver"])
+    fn = train_function(solver)
+    options = dict(ident.get("options") or {})
+    if is_frequency_solver(solver):
+        return fn(mesh, shapes, float(mach), make_solver(solver), progress=progress, **options)
+    return fn(mesh, shapes, float(mach), make_solver(solver), na=int(ident["na"]), nb=int(ident["nb"]),
+              progress=progress, **options)
+
+
+def quality_line(rom: Any) -> str:
+    """One-line quality of a trained ROM: the RFA's worst fit error, or the ARX ROM's validation NRMSE."""
+    if hasattr(rom, "fit_error"):
+        return f"RFA fit error max {rom.max_fit_error:.2e} ({rom.n_lags} lag(s), {rom.ss.n_states} states)"
+    return f"validation NRMSE max {max(float(x) for x in rom.validation_nrmse):.2e} ({rom.ss.n_states} states)"

@@ -1,0 +1,141 @@
+"""Training of a rational-function ROM from a frequency-domain solver (the DLM), once per Mach number.
+
+The solver gives the generalized aerodynamic forces of the basis shapes, H(k) [nk, m, m] (m^3 per unit
+generalized displacement, k = omega b / V on b = c_ref / 2) on a table of reduced frequencies; a Roger RFA
+(``romams_core.rfa``) is fitted in basis coordinates and realized as a continuous state space in t* with the
+damping and apparent-mass terms D1, D2. Every structure's modal ROM is then ``to_modal(rom.ss, gamma)``, as for
+the time-domain (ARX) ROMs, and the flutter search couples it directly.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from romams_core.aero.protocol import ProgressFn, check_k_values
+from romams_core.errors import InputError
+from romams_core.mesh import StandardMesh
+from romams_core.rfa import DEFAULT_MAX_LAGS, DEFAULT_TOL, RogerRfa, fit_rfa
+from romams_core.statespace import ContinuousSS
+
+#: Default table of reduced frequencies (on the semichord): dense where the lag terms bend, to k = 2.
+DEFAULT_K_VALUES = (0.0, 0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.65, 0.8, 1.0, 1.25, 1.5, 1.75, 2.0)
+
+
+@dataclass
+class TrainedRfaRom:
+    """A rational-function aerodynamic ROM at one Mach number (basis coordinates), with its table and fit errors."""
+
+    solver: str
+    mach: float
+    c_ref: float  # m
+    n_basis: int  # m, inputs = outputs
+    k_values: np.ndarray  # [nk] reduced frequencies of the table
+    gaf: np.ndarray  # [nk, m, m] solver GAF (m^3)
+    rfa: RogerRfa
+    ss: ContinuousSS  # continuous realization in t* (with D1, D2)
+    fit_error: np.ndarray  # [m, m] worst weighted error over the table per entry (romams_core.rfa)
+    fit_tol: float
+    lag_counts: np.ndarray  # lag counts tried by the automatic choice
+    lag_errors: np.ndarray  # worst entry error reached with each count
+    warnings: list[str] = field(default_factory=list)
+    train_seconds: float = 0.0
+    solver_seconds: float = 0.0
+    solver_description: str = ""
+
+    @property
+    def n_lags(self) -> int:
+        """Number of lag roots of the RFA."""
+        return self.rfa.n_lags
+
+    @property
+    def max_fit_error(self) -> float:
+        """Worst weighted entry error of the fit over the table."""
+        return float(np.max(self.fit_error))
+
+    @property
+    def validation_nrmse(self) -> np.ndarray:
+        """Per-output quality number shown next to the ARX ROMs' validation NRMSE: worst fit error of each row."""
+        return np.max(self.fit_error, axis=1)
+
+    @property
+    def na(self) -> int:
+        """ARX order (none: a frequency-domain ROM)."""
+        return 0
+
+    @property
+    def nb(self) -> int:
+        """ARX order (none: a frequency-domain ROM)."""
+        return 0
+
+    def summary(self) -> dict[str, object]:
+        """Small JSON-able summary (floats and lists)."""
+        return {
+            "solver": self.solver,
+            "kind": "rfa",
+            "mach": self.mach,
+            "n_basis": self.n_basis,
+            "n_lags": self.n_lags,
+            "lags": [float(x) for x in self.rfa.lags],
+            "n_states": self.ss.n_states,
+            "k_max": float(self.k_values[-1]),
+            "n_k": int(self.k_values.size),
+            "fit_error_max": self.max_fit_error,
+            "validation_nrmse": [float(x) for x in self.validation_nrmse],
+            "train_seconds": self.train_seconds,
+            "warnings": list(self.warnings),
+        }
+
+
+def train_rfa_rom(
+    mesh: StandardMesh,
+    shapes: np.ndarray,
+    mach: float,
+    solver: Any,
+    *,
+    k_values: Any = DEFAULT_K_VALUES,
+    n_lags: int | None = None,
+    max_lags: int = DEFAULT_MAX_LAGS,
+    fit_tol: float = DEFAULT_TOL,
+    progress: ProgressFn | None = None,
+) -> TrainedRfaRom:
+    """GAF table of ``shapes`` [N, m] (m) by the frequency-domain ``solver`` at ``mach`` and its Roger RFA.
+
+    ``k_values``: reduced frequencies (semichord) of the table; include 0 so the steady term is exact.
+    ``n_lags``/``max_lags``/``fit_tol`` go to ``romams_core.rfa.fit_rfa``. ``progress(fraction, message)``
+    follows the solver (90 %) and the fit; a ``Cancelled`` raised by it propagates.
+    """
+    t0 = time.perf_counter()
+    k = check_k_values(k_values)
+    if k.size < 4:
+        raise InputError("k_values", f"need at least 4 reduced frequencies for the RFA, got {k.size}")
+
+    def solver_progress(frac: float, msg: str) -> None:
+        if progress is not None:
+            progress(0.9 * frac, msg)
+
+    gaf = np.asarray(solver.gaf(mesh, shapes, mach, k, progress=solver_progress), dtype=complex)
+    t_solver = time.perf_counter() - t0
+    if progress is not None:
+        progress(0.9, "fitting the rational function approximation")
+    fit = fit_rfa(k, gaf, n_lags=n_lags, max_lags=max_lags, tol=fit_tol)
+    warnings = list(solver.info(mach).warnings)
+    if fit.max_error > fit_tol:
+        warnings.append(f"RFA fit error {fit.max_error:.3g} above the tolerance {fit_tol:g} with "
+                        f"{fit.rfa.n_lags} lag(s)")
+    if k[0] > 0.0:
+        warnings.append("the table has no k = 0 point: the steady term is fitted, not exact")
+    counts = np.array(sorted(fit.errors_by_lags), dtype=int)
+    rom = TrainedRfaRom(
+        solver=str(solver.name), mach=float(mach), c_ref=float(mesh.c_ref), n_basis=int(gaf.shape[1]),
+        k_values=k, gaf=gaf, rfa=fit.rfa, ss=fit.rfa.state_space(), fit_error=fit.fit_error, fit_tol=float(fit_tol),
+        lag_counts=counts, lag_errors=np.array([fit.errors_by_lags[int(c)] for c in counts]), warnings=warnings,
+        train_seconds=time.perf_counter() - t0, solver_seconds=t_solver,
+        solver_description=solver.info(mach).description,
+    )
+    if progress is not None:
+        progress(1.0, f"RFA with {fit.rfa.n_lags} lag(s), worst entry error {fit.max_error:.2e}")
+    return rom
