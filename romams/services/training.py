@@ -17,6 +17,8 @@ import inspect
 from collections.abc import Callable, Mapping
 from typing import Any
 
+import numpy as np
+
 #: Solver of a new ROM when none is named.
 DEFAULT_SOLVER = "dlm"
 FREQUENCY_SOLVERS = ("dlm",)
@@ -91,8 +93,15 @@ def train(mesh: Any, shapes: Any, mach: float, ident: Mapping[str, Any],
     options = dict(ident.get("options") or {})
     if is_frequency_solver(solver):
         return fn(mesh, shapes, float(mach), make_solver(solver), progress=progress, **options)
-    return fn(mesh, shapes, float(mach), make_solver(solver), na=int(ident["na"]), nb=int(ident["nb"]),
-              progress=progress, **options)
+    rom = fn(mesh, shapes, float(mach), make_solver(solver), na=int(ident["na"]), nb=int(ident["nb"]),
+             progress=progress, **options)
+    if solver == "uvlm":  # flag shapes whose damping the lattice cannot resolve (the DLM as the independent check)
+        from romams_core.aero.crosscheck import CHECK_K, uvlm_damping_warnings
+
+        k = np.array([x for x in CHECK_K if x <= float(getattr(rom, "k_max", max(CHECK_K)))])
+        if k.size:
+            rom.warnings.extend(uvlm_damping_warnings(mesh, shapes, float(mach), rom.ss.freqresp(k), k))
+    return rom
 
 
 def quality_line(rom: Any) -> str:
