@@ -29,7 +29,8 @@ def rom_key(wing_id: int, basis_id: int, mach: float, params: Mapping[str, Any])
 
 
 def small_summary(obj: Any, max_size: int = 256) -> dict[str, Any]:
-    """JSON summary of a result dataclass: scalars, strings and arrays with at most ``max_size`` entries."""
+    """JSON summary of a result dataclass: scalars, strings and arrays with at most ``max_size`` entries, updated with
+    the object's own ``summary()`` when it has one."""
     out: dict[str, Any] = {}
     if not dataclasses.is_dataclass(obj):
         return out
@@ -42,6 +43,9 @@ def small_summary(obj: Any, max_size: int = 256) -> dict[str, Any]:
             out[f.name] = serialize.to_jsonable(v)
         elif isinstance(v, list | tuple) and len(v) <= max_size and all(isinstance(x, int | float | str) for x in v):
             out[f.name] = serialize.to_jsonable(list(v))
+    summary = getattr(obj, "summary", None)
+    if callable(summary):  # the object's own summary (e.g. a ROM's kind, fit error, state count) completes it
+        out.update(serialize.to_jsonable(summary()))
     return out
 
 

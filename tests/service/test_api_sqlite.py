@@ -77,7 +77,7 @@ def test_training_jobs_store_roms_and_resubmission_returns_existing(svc):
     roms = svc.client.get(f"/api/v1/wings/{svc.wing_id}/roms").json()
     assert sorted(r["mach"] for r in roms) == MACHS
     for r in roms:
-        assert r["solver"] == "uvlm" and r["params"]["na"] == 8 and r["params"]["nb"] == 8
+        assert r["solver"] == "dlm" and r["params"]["na"] == 0 and r["params"]["nb"] == 0  # the default solver
         assert max(r["summary"]["validation_nrmse"]) < 0.02  # the trainer's tolerance
     again = svc.client.post(f"/api/v1/wings/{svc.wing_id}/roms", json={"machs": MACHS})
     assert again.status_code == 200
@@ -238,7 +238,8 @@ def test_dashboard_lists_jobs_wings_bases_roms(svc):
 
 
 def test_cancel_a_running_training_job(svc):
-    r = svc.client.post(f"/api/v1/wings/{svc.wing_id}/roms", json={"mach": 0.6, "options": {"n_steps": 30000}})
+    r = svc.client.post(f"/api/v1/wings/{svc.wing_id}/roms", json={"mach": 0.6, "solver": "uvlm",
+                                                                     "options": {"n_steps": 30000}})
     assert r.status_code == 202
     jid = r.json()["job_id"]
     wait_job(svc.client, jid, 120, until=("running", "succeeded", "failed"))
@@ -251,7 +252,8 @@ def test_cancel_a_running_training_job(svc):
 
 
 def test_killed_pool_process_job_is_redelivered(svc):
-    r = svc.client.post(f"/api/v1/wings/{svc.wing_id}/roms", json={"mach": 0.7, "options": {"n_steps": 12000}})
+    r = svc.client.post(f"/api/v1/wings/{svc.wing_id}/roms", json={"mach": 0.7, "solver": "uvlm",
+                                                                     "options": {"n_steps": 12000}})
     jid = r.json()["job_id"]
     job = wait_job(svc.client, jid, 120, until=("running", "succeeded", "failed"))
     assert job["status"] == "running"
@@ -265,7 +267,8 @@ def test_killed_pool_process_job_is_redelivered(svc):
 
 
 def test_killed_worker_machine_job_is_resent_by_the_sweeper(svc):
-    r = svc.client.post(f"/api/v1/wings/{svc.wing_id}/roms", json={"mach": 0.75, "options": {"n_steps": 12000}})
+    r = svc.client.post(f"/api/v1/wings/{svc.wing_id}/roms", json={"mach": 0.75, "solver": "uvlm",
+                                                                     "options": {"n_steps": 12000}})
     jid = r.json()["job_id"]
     job = wait_job(svc.client, jid, 120, until=("running", "succeeded", "failed"))
     assert job["status"] == "running"

@@ -44,7 +44,7 @@ def test_basis_training_and_worker_crash_on_postgres_and_redis(tmp_path, pg_url,
             b = c.get(f"/api/v1/wings/{wid}/bases").json()[0]
             assert b["summary"]["min_mac"] >= 0.98
 
-            r = c.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.8, "options": {"n_steps": 12000}})
+            r = c.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.8, "solver": "uvlm", "options": {"n_steps": 12000}})
             assert r.status_code == 202
             jid = r.json()["job_id"]
             job = wait_job(c, jid, 120, until=("running", "succeeded", "failed"))
@@ -56,7 +56,8 @@ def test_basis_training_and_worker_crash_on_postgres_and_redis(tmp_path, pg_url,
             assert job["deliveries"] >= 2
             roms = c.get(f"/api/v1/wings/{wid}/roms").json()
             assert [x["mach"] for x in roms] == [0.8] and max(roms[0]["summary"]["validation_nrmse"]) < 0.02
-            again = c.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.8, "options": {"n_steps": 12000}})
+            again = c.post(f"/api/v1/wings/{wid}/roms",
+                           json={"mach": 0.8, "solver": "uvlm", "options": {"n_steps": 12000}})
             assert again.status_code == 200 and again.json()["rom_id"] == roms[0]["id"]
             out = c.post(f"/api/v1/wings/{wid}/flutter", json={"design": [0.3, 0.4, 0.7, 0.05, 1.0, 1.0, 0.8]})
             assert out.status_code == 200, out.text
