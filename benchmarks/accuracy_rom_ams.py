@@ -74,13 +74,9 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
     modals = [modal_analysis(wing, x, 4, mesh) for x in designs]
     # ROM-PMS: one training per (design, Mach), spread over processes, Mach by Mach (a frequency-domain solver
     # then reuses its factorized AICs of that Mach); pms_roms[i * n_mach + j] is design i at Mach j
-    from romams.pipeline import _train_one, parallel_map
+    from romams.pipeline import parallel_map, train_shape_sets
 
-    order = [(i, j) for j in range(len(machs)) for i in range(len(modals))]
-    trained = parallel_map(_train_one, [(mesh, modals[i].shapes, machs[j], dict(ident)) for i, j in order], processes)
-    pms_roms: list[Any] = [None] * len(order)
-    for (i, j), rom in zip(order, trained, strict=True):
-        pms_roms[i * len(machs) + j] = rom
+    pms_roms = [r for rs in train_shape_sets(mesh, [m.shapes for m in modals], machs, ident, processes) for r in rs]
     n_fom = min(max(int(fom), 0), n_designs)
     fom_jobs = [(mesh, m.omega, m.shapes, mach, wing.modal_damping, sweep, ident["solver"]) for m in modals[:n_fom]
                 for mach in machs]

@@ -115,6 +115,20 @@ def train_shapes(mesh: StandardMesh, shapes: np.ndarray, machs: Sequence[float],
     return parallel_map(_train_one, [(mesh, shapes, float(m), ident) for m in machs], processes)
 
 
+def train_shape_sets(mesh: StandardMesh, shape_sets: Sequence[np.ndarray], machs: Sequence[float],
+                     ident: Mapping[str, Any], processes: int | None = None) -> list[list[Any]]:
+    """ROMs of several shape sets (e.g. the own modes of several structures) at every Mach: out[i][j] is set i at
+    machs[j]. Trained in parallel processes Mach by Mach, so a frequency-domain solver's per-process cache of
+    factorized AICs (one per Mach and reduced frequency) serves every set of that Mach."""
+    order = [(i, j) for j in range(len(machs)) for i in range(len(shape_sets))]
+    trained = parallel_map(_train_one, [(mesh, shape_sets[i], float(machs[j]), dict(ident)) for i, j in order],
+                           processes)
+    out: list[list[Any]] = [[None] * len(machs) for _ in shape_sets]
+    for (i, j), rom in zip(order, trained, strict=True):
+        out[i][j] = rom
+    return out
+
+
 def ensure_roms(
     store: Any,
     wing_id: int,

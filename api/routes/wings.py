@@ -13,8 +13,9 @@ from api.problems import Problem, from_value_error, invalid
 from api.schemas import ActiveBasis, BasisRequest, Created, JobRef, RomRequest, WingCreate
 from romams.jobs import submit
 from romams.persistence import content_hash, rom_key
+from romams.services.errors import ServiceError
 from romams.services.models import resolve_basis_id
-from romams.services.training import allowed_options, available, rom_identity
+from romams.services.training import allowed_options, available, check_options, rom_identity
 
 router = APIRouter(tags=["wings"])
 
@@ -136,6 +137,10 @@ def _train_options(solver: str, options: dict[str, Any]) -> dict[str, Any]:
                 raise invalid(f"options.{k}", "a list must hold finite numbers only")
         elif not isinstance(v, bool | int | float | str | type(None)):
             raise invalid(f"options.{k}", "must be a number, a list of numbers, a string, a boolean or null")
+    try:
+        check_options(solver, options)
+    except ServiceError as exc:
+        raise invalid(exc.field or "options", exc.reason) from None
     return dict(sorted(options.items()))
 
 

@@ -85,6 +85,31 @@ def allowed_options(solver: str) -> set[str]:
     return names - RESERVED_OPTIONS
 
 
+def check_options(solver: str, options: Mapping[str, Any]) -> None:
+    """Validate the values of training settings that the core checks only when the job runs (InvalidInput naming
+    ``options.<name>``): the dlm's reduced-frequency table, lag counts and fit tolerance."""
+    from romams.services.errors import InvalidInput
+    from romams_core.aero.protocol import check_k_values
+    from romams_core.errors import InputError
+
+    if not is_frequency_solver(solver):
+        return
+    try:
+        if "k_values" in options:
+            k = check_k_values(options["k_values"])
+            if k.size < 4:
+                raise InputError("k_values", f"need at least 4 reduced frequencies for the RFA, got {k.size}")
+    except InputError as exc:
+        raise InvalidInput("options.k_values", exc.reason) from None
+    for name in ("n_lags", "max_lags"):
+        v = options.get(name)
+        if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 12):
+            raise InvalidInput(f"options.{name}", f"must be an integer in 0..12, got {v!r}")
+    tol = options.get("fit_tol")
+    if tol is not None and not (isinstance(tol, int | float) and not isinstance(tol, bool) and tol > 0):
+        raise InvalidInput("options.fit_tol", f"must be a number > 0, got {tol!r}")
+
+
 def train(mesh: Any, shapes: Any, mach: float, ident: Mapping[str, Any],
           progress: Callable[[float, str], None] | None = None) -> Any:
     """Train the ROM of ``shapes`` [N, m] at ``mach`` with identity ``ident``: a TrainedRfaRom or a TrainedRom."""

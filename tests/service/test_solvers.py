@@ -67,6 +67,9 @@ def test_both_solvers_are_stored_and_the_default_is_dlm(svc):
     ({"machs": [0.8, 1.2]}, "machs"),
     ({"mach": 0.8, "options": {"n_steps": 100}}, "options.n_steps"),  # an ARX setting is not a dlm setting
     ({"mach": 0.8, "options": {"k_values": [0.0, "x"]}}, "options.k_values"),
+    ({"mach": 0.8, "options": {"k_values": []}}, "options.k_values"),  # an empty reduced-frequency table
+    ({"mach": 0.8, "options": {"k_values": [0.0, 0.5, 0.2, 1.0]}}, "options.k_values"),  # not ascending
+    ({"mach": 0.8, "options": {"n_lags": 40}}, "options.n_lags"),
     ({"mach": 0.8, "solver": "vlm"}, "solver"),
 ])
 def test_bad_training_input_is_refused_and_changes_nothing(svc, body, field):
