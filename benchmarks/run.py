@@ -4,10 +4,12 @@
 
 - structure_eval_ms: one structure = modal analysis + flutter at 5 Mach numbers (projection on the
   basis, ROM to modal coordinates, flutter search, envelope), in process, one core, median over
-  random designs; the basis and UVLM ROMs are built in process first (their timings are reported).
-- rom_pms_over_rom_ams: cost of one structure by ROM-PMS (ARX models identified on the structure's
-  own modes at the 5 Machs, then the same flutter analysis) over its ROM-AMS cost, same run; with the
-  flutter-speed differences between the two.
+  random designs; the basis and the ROMs of ``--solver`` (default dlm: rational-function ROMs; uvlm: ARX)
+  are built in process first (their timings are reported).
+- rom_pms_over_rom_ams: cost of one structure by ROM-PMS (ROMs trained on the structure's own modes at the
+  5 Machs, then the same flutter analysis) over its ROM-AMS cost, same run; with the flutter-speed
+  differences between the two. With the dlm, the factorized AICs of the basis training are reused, so this is
+  the cost of the solves and fits, not of a new aerodynamic run.
 - batch_throughput_per_s: designs per second through POST /flutter/batch of a live embedded service
   (``romams serve``, SQLite, child worker) that this benchmark starts, with 1 and 2 worker processes;
   worker_peak_rss_mb: peak resident memory (VmHWM) of the worker processes over a 1 000-design batch.
@@ -45,7 +47,16 @@ import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 MACHS = (0.79, 0.83, 0.87, 0.91, 0.95)
-TRAIN_OPTIONS = {"reduce_order": "auto"}  # the service ROMs of the examples: balanced truncation at training
+TRAIN_OPTIONS = {"reduce_order": "auto"}  # uvlm ROMs of the examples: balanced truncation at training
+SOLVER = {"name": "dlm"}  # the aerodynamic solver of the in-process ROMs (``--solver``; the service's default)
+
+
+def _ident() -> dict[str, Any]:
+    """ROM identity of the in-process models (the UVLM's ARX ROMs reduced by balanced truncation)."""
+    from romams.services.training import rom_identity
+
+    name = SOLVER["name"]
+    return rom_identity(name, options=TRAIN_OPTIONS if name == "uvlm" else None)
 TARGETS = {"structure_eval_ms": 50.0, "optimization_wall_s": 600.0, "training_s_per_mach": 60.0}
 
 
@@ -64,11 +75,10 @@ def _load_example(name: str) -> Any:
 
 # ---- in process ---------------------------------------------------------------------------------------
 def build_models(samples: int = 25, machs: tuple[float, ...] = MACHS) -> dict[str, Any]:
-    """Cropped-delta basis and UVLM ROMs at ``machs``, in process, with their timings."""
-    from romams_core.aero.uvlm import UvlmSolver
+    """Cropped-delta basis and ROMs (``SOLVER``) at ``machs``, in process, with their timings."""
+    from romams.services.training import train
     from romams_core.basis import build_basis_for_wing
     from romams_core.mesh import standard_mesh
-    from romams_core.training import train_rom
     from romams_core.wing import template
 
     wing = template("cropped-delta")
@@ -79,7 +89,7 @@ def build_models(samples: int = 25, machs: tuple[float, ...] = MACHS) -> dict[st
     roms, t_train = {}, []
     for m in machs:
         t0 = time.perf_counter()
-        roms[float(m)] = train_rom(mesh, basis.shapes, float(m), UvlmSolver(), **TRAIN_OPTIONS)
+        roms[float(m)] = train(mesh, basis.shapes, float(m), _ident())
         t_train.append(time.perf_counter() - t0)
     return {"wing": wing, "mesh": mesh, "basis": basis, "roms": roms, "basis_s": t_basis, "train_s": t_train}
 
@@ -116,11 +126,10 @@ def structure_eval(models: dict[str, Any], n_designs: int, seed: int = 1) -> dic
 
 def rom_pms_cost(models: dict[str, Any], n_designs: int, ams_ms: float, seed: int = 2) -> dict[str, Any]:
     """ROM-PMS per structure (own-mode training at every Mach + flutter) vs ROM-AMS, and their flutter speeds."""
-    from romams_core.aero.uvlm import UvlmSolver
+    from romams.services.training import train
     from romams_core.basis import random_designs
     from romams_core.evaluate import evaluate_structure
     from romams_core.structure.modal import modal_analysis
-    from romams_core.training import train_rom
 
     wing, mesh, basis, roms = models["wing"], models["mesh"], models["basis"], models["roms"]
     zeta = wing.modal_damping or None
@@ -128,7 +137,7 @@ def rom_pms_cost(models: dict[str, Any], n_designs: int, ams_ms: float, seed: in
     for x in random_designs(wing, n_designs, seed=seed):
         t0 = time.process_time()
         modal = modal_analysis(wing, x, 4, mesh)
-        own = {m: train_rom(mesh, modal.shapes, m, UvlmSolver(), **TRAIN_OPTIONS) for m in roms}
+        own = {m: train(mesh, modal.shapes, m, _ident()) for m in roms}
         pms = evaluate_structure(modal, modal.shapes, own, zeta=zeta)
         times.append(time.process_time() - t0)
         ams = evaluate_structure(modal, basis.shapes, roms, zeta=zeta)
@@ -358,13 +367,16 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--generations", type=int, default=150, help="DE generations of the optimization benchmark")
     ap.add_argument("--popsize", type=int, default=30)
     ap.add_argument("--skip-service", action="store_true", help="in-process numbers only")
+    ap.add_argument("--solver", default="dlm", choices=["dlm", "uvlm"], help="solver of the in-process ROMs")
     args = ap.parse_args(argv)
     quick = args.quick
     t_start = time.perf_counter()
     out: dict[str, Any] = {"benchmark": "romams", "quick": quick, "targets": TARGETS,
                            "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
                                        "numpy": np.__version__, "load_avg_start": list(os.getloadavg())}}
-    log("in process: basis + UVLM ROMs at 5 Machs")
+    SOLVER["name"] = args.solver
+    out["solver"] = args.solver
+    log(f"in process: basis + {args.solver} ROMs at 5 Machs")
     models = build_models(samples=25)
     se = structure_eval(models, n_designs=10 if quick else 40)
     out["structure_eval_ms"] = se["structure_eval_ms"]
