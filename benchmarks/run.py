@@ -184,7 +184,8 @@ def _prepare(client: Any, samples: int, machs: tuple[float, ...]) -> tuple[int, 
     """Wing, basis and ROMs on the service (reused when present); setup timings."""
     ex = _load_example("optimize_cropped_delta")
     t0 = time.perf_counter()
-    wid = ex.prepare_service(client, "cropped-delta", machs, samples, 0, TRAIN_OPTIONS, log=log, progress=False)
+    wid = ex.prepare_service(client, "cropped-delta", machs, samples, 0, _ident()["options"], log=log, progress=False,
+                             solver=SOLVER["name"])
     return wid, {"setup_s": time.perf_counter() - t0}
 
 

@@ -187,13 +187,14 @@ class RomamsClient:
         """Bases of a wing, newest first."""
         return self._json("GET", f"/wings/{self._ref(wing)}/bases")
 
-    def start_training(self, wing: WingRef, machs: float | Sequence[float], solver: str = "uvlm", na: int = 8,
+    def start_training(self, wing: WingRef, machs: float | Sequence[float], solver: str = "dlm", na: int = 8,
                        nb: int = 8, basis_id: int | None = None,
                        options: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
         """Start ROM training at one or several Mach numbers (one job each).
 
-        Returns one item per Mach: ``{"mach", "job_id", "rom_id", "existing"}`` (an already trained
-        model or running job is returned instead of a new one).
+        ``solver``: "dlm" (doublet lattice, rational-function ROM; the default) or "uvlm" (ARX ROM, whose
+        orders ``na``/``nb`` apply). Returns one item per Mach: ``{"mach", "job_id", "rom_id", "existing"}``
+        (an already trained model or running job is returned instead of a new one).
         """
         single = np.ndim(machs) == 0
         body: dict[str, Any] = {"solver": solver, "na": int(na), "nb": int(nb)}
@@ -306,18 +307,21 @@ class RomamsClient:
 
     def evaluate(self, wing: WingRef, design: DesignLike | None = None, *, machs: Sequence[float] | None = None,
                  method: str = "rom-ams", basis_id: int | None = None, store: bool = True,
-                 timeout_s: float | None = None) -> dict[str, Any]:
+                 timeout_s: float | None = None, solver: str | None = None) -> dict[str, Any]:
         """Flutter evaluation of one design (None = the wing's baseline) at the trained (or given) Machs.
 
         Returns the service's result: mass_kg, frequencies_hz, mac, results per Mach (v_flutter_m_s,
         omega_flutter_rad_s, q_flutter_pa, sdoff, flutter_mode, safe_altitude_m), envelope_ok, ...
-        A 202 answer (the service was busy) is waited for transparently.
+        A 202 answer (the service was busy) is waited for transparently. ``solver`` picks the ROMs of one
+        aerodynamic solver (default: the service's choice, the dlm ROM where one is trained).
         """
         body: dict[str, Any] = {"design": _design_json(design), "method": method, "store": bool(store)}
         if machs is not None:
             body["machs"] = [float(m) for m in machs]
         if basis_id is not None:
             body["basis_id"] = int(basis_id)
+        if solver is not None:
+            body["solver"] = str(solver)
         r = self.request("POST", f"/wings/{self._ref(wing)}/flutter", json=body)
         out = r.json()
         if r.status_code == 202:
@@ -327,7 +331,7 @@ class RomamsClient:
     def evaluate_batch(self, wing: WingRef, designs: Iterable[DesignLike] | np.ndarray, *,
                        machs: Sequence[float] | None = None, basis_id: int | None = None,
                        max_per_request: int = 5000, timeout_s: float | None = None,
-                       progress: bool = False) -> list[dict[str, Any]]:
+                       progress: bool = False, solver: str | None = None) -> list[dict[str, Any]]:
         """Flutter evaluation of many designs, results in order (one dict per design, as evaluate()).
 
         One request per ``max_per_request`` designs; a large batch the service answers with 202 and a
@@ -343,6 +347,8 @@ class RomamsClient:
                 body["machs"] = [float(m) for m in machs]
             if basis_id is not None:
                 body["basis_id"] = int(basis_id)
+            if solver is not None:
+                body["solver"] = str(solver)
             r = self.request("POST", f"/wings/{self._ref(wing)}/flutter/batch", json=body)
             out = r.json()
             if r.status_code == 202 or "results" not in out:

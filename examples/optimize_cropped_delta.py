@@ -59,7 +59,7 @@ def log_stderr(msg: str) -> None:
 # ---- service preparation ------------------------------------------------------------------------------
 def prepare_service(client: RomamsClient, wing: str, machs: tuple[float, ...], samples: int, basis_seed: int,
                     train_options: dict[str, Any], log: Log = log_stderr, progress: bool = True,
-                    basis_mac: float = 0.9999, max_basis: int = 8) -> int:
+                    basis_mac: float = 0.9999, max_basis: int = 8, solver: str = "dlm") -> int:
     """Wing id with a basis and ROMs at ``machs`` (created / trained when missing; an existing basis is reused)."""
     wid = client.ensure_wing(wing, "cropped-delta")
     info = client.get_wing(wid)
@@ -73,7 +73,7 @@ def prepare_service(client: RomamsClient, wing: str, machs: tuple[float, ...], s
         log(f"  basis {job['result']['basis_id']}: {job['result']['n_basis']} shapes, "
             f"worst sample MAC {job['result']['min_mac']:.4f}")
     t0 = time.perf_counter()
-    roms = client.train(wid, list(machs), options=train_options, progress=progress)
+    roms = client.train(wid, list(machs), solver=solver, options=train_options, progress=progress)
     trained = ", ".join(f"{r['mach']:g}" for r in roms)
     log(f"ROMs at Mach {trained} ready ({time.perf_counter() - t0:.1f} s)")
     return wid
@@ -165,20 +165,21 @@ def verify_api(client: RomamsClient, wing: int, x: list[float], machs: list[floa
 
 
 def verify_local(definition: dict[str, Any], x: list[float], machs: list[float], n_modes: int,
-                 train_options: dict[str, Any], mac_threshold: float = 0.98) -> dict[str, Any]:
-    """ROM-PMS in process (romams_core): UVLM ARX models identified on the optimum's own modes, same flutter search."""
-    from romams_core.aero.uvlm import UvlmSolver
+                 train_options: dict[str, Any], mac_threshold: float = 0.98, solver: str = "dlm") -> dict[str, Any]:
+    """ROM-PMS in process: ROMs of ``solver`` trained on the optimum's own modes (the service's training
+    dispatch, romams.services.training), same flutter search."""
+    from romams.services.training import rom_identity, train
     from romams_core.evaluate import evaluate_structure
     from romams_core.mesh import standard_mesh
     from romams_core.structure.modal import modal_analysis
-    from romams_core.training import train_rom
     from romams_core.wing import WingDefinition
 
     wing = WingDefinition.from_dict(definition)
     mesh = standard_mesh(wing.planform)
     modal = modal_analysis(wing, np.asarray(x, dtype=float), n_modes=n_modes, mesh=mesh)
     t0 = time.perf_counter()
-    roms = {float(m): train_rom(mesh, modal.shapes, float(m), UvlmSolver(), **train_options) for m in machs}
+    ident = rom_identity(solver, options=train_options)
+    roms = {float(m): train(mesh, modal.shapes, float(m), ident) for m in machs}
     ev = evaluate_structure(modal, modal.shapes, roms, mac_threshold=mac_threshold, zeta=wing.modal_damping or None)
     rows = [{"mach": float(r.mach), "v_flutter_m_s": r.v_flutter_m_s if r.flutter_found else None,
              "v_eas_m_s": r.v_eas_m_s if r.flutter_found else None,
@@ -281,22 +282,27 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--envelope-tol", type=float, default=0.01, help="altitude tolerance of the envelope check, m")
     ap.add_argument("--machs", type=float, nargs="+", default=list(PAPER_MACHS))
     ap.add_argument("--samples", type=int, default=25, help="LHS samples if the basis must be built")
-    ap.add_argument("--train-options", default='{"reduce_order": "auto"}',
-                    help="JSON of extra training settings (train_rom keywords) if ROMs must be trained")
+    ap.add_argument("--solver", choices=("dlm", "uvlm"), default="dlm",
+                    help="aerodynamic solver of the ROMs (dlm: doublet lattice, the service default)")
+    ap.add_argument("--train-options", default=None,
+                    help="JSON of extra training settings if ROMs must be trained (default: none for dlm, "
+                         '{"reduce_order": "auto"} for uvlm)')
     ap.add_argument("--verify", choices=("auto", "api", "local", "none"), default="auto",
                     help="ROM-PMS check of the optimum: the API's method, in-process romams_core, or both (auto)")
     ap.add_argument("--out", type=Path, default=Path("de-out"))
     ap.add_argument("--quiet", action="store_true", help="no progress bars")
     args = ap.parse_args(argv)
+    default_options = '{"reduce_order": "auto"}' if args.solver == "uvlm" else "{}"
     try:
-        train_options = json.loads(args.train_options)
+        train_options = json.loads(args.train_options if args.train_options is not None else default_options)
     except json.JSONDecodeError as exc:
         ap.error(f"--train-options: not JSON ({exc})")
     machs = tuple(sorted(args.machs))
     args.out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
     with RomamsClient(args.url, api_key=args.api_key) as client:
-        wid = prepare_service(client, args.wing, machs, args.samples, 0, train_options, progress=not args.quiet)
+        wid = prepare_service(client, args.wing, machs, args.samples, 0, train_options, progress=not args.quiet,
+                              solver=args.solver)
         t_ready = time.perf_counter()
         problem = FlutterProblem(client, wid, machs=machs, mu=args.mu, keep_history=False, penalty=args.penalty,
                                  envelope_tol_m=args.envelope_tol)
@@ -315,7 +321,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         if pms is None and args.verify in ("auto", "local"):
             try:
                 definition = client.get_wing(wid)["definition"]
-                pms = verify_local(definition, x_opt, list(machs), len(optimum["frequencies_hz"]), train_options)
+                pms = verify_local(definition, x_opt, list(machs), len(optimum["frequencies_hz"]), train_options,
+                                   solver=args.solver)
                 pms_note += ("; " if pms_note else "") + "verified in process with romams_core"
             except ImportError:
                 pms_note += "; romams_core is not installed here, no ROM-PMS verification"

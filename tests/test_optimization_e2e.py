@@ -34,8 +34,8 @@ def _example():
 def test_short_de_optimization_over_http(tmp_path) -> None:
     ex = _example()
     with LiveService(tmp_path / "svc", concurrency=1) as svc, RomamsClient(svc.url, timeout=120) as client:
-        wid = ex.prepare_service(client, "cd-e2e", MACHS, samples=10, basis_seed=1,
-                                 train_options={"reduce_order": "auto"}, log=lambda m: None, progress=False)
+        wid = ex.prepare_service(client, "cd-e2e", MACHS, samples=10, basis_seed=1, train_options={},
+                                 log=lambda m: None, progress=False)  # the default solver: dlm
         problem = FlutterProblem(client, wid, machs=MACHS, mu=10.0)
         baseline = problem.baseline()
         assert baseline["mass_kg"] == pytest.approx(0.24, rel=0.02)

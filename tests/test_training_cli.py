@@ -46,6 +46,8 @@ def test_train_command_default_dlm_rational_function_rom(data_dir):
     assert rep["solver"] == "dlm" and rep["kind"] == "rfa" and rep["na"] == rep["nb"] == 0
     assert rep["dt_star"] == 0.0 and rep["fit_error_max"] <= 0.01 and 1 <= rep["n_lags"] <= 8
     assert len(rep["validation_nrmse"]) == rep["n_basis"] and max(rep["validation_nrmse"]) == rep["fit_error_max"]
+    fe = np.array(rep["fit_error"])  # worst weighted error over the k table, per entry
+    assert fe.shape == (rep["n_basis"], rep["n_basis"]) and fe.max() == rep["fit_error_max"]
     (png,) = rep["plots"]
     with open(png, "rb") as fh:
         assert fh.read(8) == b"\x89PNG\r\n\x1a\n"

@@ -96,7 +96,7 @@ def train_command(
         "warnings": list(rom.warnings),
     }
     if is_frequency_solver(rom.solver):
-        report.update(kind="rfa", n_lags=rom.n_lags, fit_error_max=rom.max_fit_error,
+        report.update(kind="rfa", n_lags=rom.n_lags, fit_error_max=rom.max_fit_error, fit_error=rom.fit_error.tolist(),
                       k_max=float(rom.k_values[-1]), solver_seconds=round(float(rom.solver_seconds), 3))
     if plot is not None:
         report["plots"] = _write_plots(plot, rom)
