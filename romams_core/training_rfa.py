@@ -16,9 +16,10 @@ from typing import Any
 import numpy as np
 
 from romams_core.aero.protocol import ProgressFn, check_k_values
+from romams_core.ct_reduction import balanced_realization, spa_reduce
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
-from romams_core.rfa import DEFAULT_MAX_LAGS, DEFAULT_TOL, RogerRfa, fit_rfa
+from romams_core.rfa import DEFAULT_MAX_LAGS, DEFAULT_TOL, RogerRfa, entry_scale, fit_errors, fit_rfa
 from romams_core.statespace import ContinuousSS
 
 #: Default table of reduced frequencies (on the semichord): dense where the lag terms bend, to k = 2.
@@ -36,8 +37,8 @@ class TrainedRfaRom:
     k_values: np.ndarray  # [nk] reduced frequencies of the table
     gaf: np.ndarray  # [nk, m, m] solver GAF (m^3)
     rfa: RogerRfa
-    ss: ContinuousSS  # continuous realization in t* (with D1, D2)
-    fit_error: np.ndarray  # [m, m] worst weighted error over the table per entry (romams_core.rfa)
+    ss: ContinuousSS  # continuous realization in t* (with D1, D2), reduced when asked (the model flutter uses)
+    fit_error: np.ndarray  # [m, m] worst weighted error of ``ss`` over the table per entry (romams_core.rfa)
     fit_tol: float
     lag_counts: np.ndarray  # lag counts tried by the automatic choice
     lag_errors: np.ndarray  # worst entry error reached with each count
@@ -45,6 +46,8 @@ class TrainedRfaRom:
     train_seconds: float = 0.0
     solver_seconds: float = 0.0
     solver_description: str = ""
+    n_states_full: int = 0  # states of the RFA's realization before the balanced reduction
+    hsv: np.ndarray = field(default_factory=lambda: np.zeros(0))  # Hankel singular values of that realization
 
     @property
     def n_lags(self) -> int:
@@ -81,6 +84,7 @@ class TrainedRfaRom:
             "n_lags": self.n_lags,
             "lags": [float(x) for x in self.rfa.lags],
             "n_states": self.ss.n_states,
+            "n_states_full": self.n_states_full,
             "k_max": float(self.k_values[-1]),
             "n_k": int(self.k_values.size),
             "fit_error_max": self.max_fit_error,
@@ -100,12 +104,16 @@ def train_rfa_rom(
     n_lags: int | None = None,
     max_lags: int = DEFAULT_MAX_LAGS,
     fit_tol: float = DEFAULT_TOL,
+    reduce_order: int | str | None = "auto",
     progress: ProgressFn | None = None,
 ) -> TrainedRfaRom:
     """GAF table of ``shapes`` [N, m] (m) by the frequency-domain ``solver`` at ``mach`` and its Roger RFA.
 
     ``k_values``: reduced frequencies (semichord) of the table; include 0 so the steady term is exact.
-    ``n_lags``/``max_lags``/``fit_tol`` go to ``romams_core.rfa.fit_rfa``. ``progress(fraction, message)``
+    ``n_lags``/``max_lags``/``fit_tol`` go to ``romams_core.rfa.fit_rfa``. ``reduce_order``: "auto" (default)
+    reduces the realization by balanced singular perturbation (``romams_core.ct_reduction``) to the fewest states
+    whose error stays within the fit's (:func:`reduce_auto`), an integer to that order, None keeps it.
+    ``progress(fraction, message)``
     follows the solver (90 %) and the fit; a ``Cancelled`` raised by it propagates.
     """
     t0 = time.perf_counter()
@@ -122,6 +130,9 @@ def train_rfa_rom(
     if progress is not None:
         progress(0.9, "fitting the rational function approximation")
     fit = fit_rfa(k, gaf, n_lags=n_lags, max_lags=max_lags, tol=fit_tol)
+    full = fit.rfa.state_space()
+    ss, hsv = reduce_model(full, k, gaf, fit.max_error, fit_tol, reduce_order)
+    fit_error = fit_errors(ss.freqresp(k), gaf, entry_scale(gaf))
     warnings = list(solver.info(mach).warnings)
     if fit.max_error > fit_tol:
         warnings.append(f"RFA fit error {fit.max_error:.3g} above the tolerance {fit_tol:g} with "
@@ -131,11 +142,40 @@ def train_rfa_rom(
     counts = np.array(sorted(fit.errors_by_lags), dtype=int)
     rom = TrainedRfaRom(
         solver=str(solver.name), mach=float(mach), c_ref=float(mesh.c_ref), n_basis=int(gaf.shape[1]),
-        k_values=k, gaf=gaf, rfa=fit.rfa, ss=fit.rfa.state_space(), fit_error=fit.fit_error, fit_tol=float(fit_tol),
+        k_values=k, gaf=gaf, rfa=fit.rfa, ss=ss, fit_error=fit_error, fit_tol=float(fit_tol),
         lag_counts=counts, lag_errors=np.array([fit.errors_by_lags[int(c)] for c in counts]), warnings=warnings,
         train_seconds=time.perf_counter() - t0, solver_seconds=t_solver,
-        solver_description=solver.info(mach).description,
+        solver_description=solver.info(mach).description, n_states_full=full.n_states, hsv=hsv,
     )
     if progress is not None:
         progress(1.0, f"RFA with {fit.rfa.n_lags} lag(s), worst entry error {fit.max_error:.2e}")
     return rom
+
+
+def reduce_model(full: ContinuousSS, k: np.ndarray, gaf: np.ndarray, fit_error: float, tol: float,
+                 reduce_order: int | str | None) -> tuple[ContinuousSS, np.ndarray]:
+    """(model, Hankel singular values): the RFA realization reduced as ``reduce_order`` asks (train_rfa_rom).
+
+    "auto": the smallest order whose worst weighted entry error against the solver's table is within
+    max(tol, 1.1 x the full fit's) and whose deviation from the full RFA on a fine grid (to 1.25 k_max) is below
+    tol / 2 (no wiggles between the table's points).
+    """
+    if reduce_order is None or full.n_states == 0:
+        return full, np.zeros(0)
+    bal, hsv = balanced_realization(full)
+    if reduce_order != "auto":
+        if not isinstance(reduce_order, int | np.integer):
+            raise InputError("reduce_order", f"must be 'auto', an integer or None, got {reduce_order!r}")
+        return spa_reduce(bal, int(min(reduce_order, bal.n_states))), hsv
+    scale = entry_scale(gaf)
+    fine = np.linspace(0.0, 1.25 * float(k[-1]), 41)
+    ref = full.freqresp(fine)
+    limit = max(tol, 1.1 * fit_error)
+    for order in range(1, bal.n_states):  # at most a few tens of small frequency responses
+        red = spa_reduce(bal, order)
+        if not red.is_stable():
+            continue
+        if (np.max(fit_errors(red.freqresp(k), gaf, scale)) <= limit
+                and np.max(fit_errors(red.freqresp(fine), ref, scale)) <= 0.5 * tol):
+            return red, hsv
+    return bal, hsv
