@@ -36,7 +36,8 @@ def train_command(
                                "rational-function ROM), uvlm (time domain, ARX ROM) or tsd (when installed)"),
     na: int = typer.Option(8, "--na", min=0, max=64, help="ARX output delay order (time-domain solvers)"),
     nb: int = typer.Option(8, "--nb", min=1, max=64, help="ARX input delay order (time-domain solvers)"),
-    reduce: str | None = typer.Option(None, "--reduce", help="ARX: balanced truncation, 'auto' or a state count"),
+    reduce: str | None = typer.Option(None, "--reduce", help="balanced reduction of the ROM: 'auto' or a state "
+                                      "count (ARX: truncation; dlm: singular perturbation of the RFA)"),
     n_steps: int | None = typer.Option(None, "--n-steps", min=16, help="ARX: signal length (steps)"),
     seed: int = typer.Option(0, "--seed", help="ARX: seed of the excitation signals"),
     n_lags: int | None = typer.Option(None, "--n-lags", min=0, max=12, help="dlm: RFA lag roots (default: automatic)"),
@@ -58,9 +59,10 @@ def train_command(
     if seed:
         options["seed"] = seed
     if is_frequency_solver(solver):
-        if options:
-            raise typer.BadParameter(f"{', '.join(options)}: ARX settings do not apply to {solver}",
-                                     param_hint="--reduce/--n-steps/--seed")
+        arx_only = [k for k in options if k != "reduce_order"]
+        if arx_only:
+            raise typer.BadParameter(f"{', '.join(arx_only)}: ARX settings do not apply to {solver}",
+                                     param_hint="--n-steps/--seed")
         if n_lags is not None:
             options["n_lags"] = n_lags
     elif n_lags is not None:
