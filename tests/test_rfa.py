@@ -134,3 +134,20 @@ def test_bad_input_names_the_field():
     with pytest.raises(InputError) as e:
         flutter_analysis(np.array([10.0]), unstable, 0.5, 0.5)
     assert e.value.field == "aero.A"
+
+
+def test_structural_content_of_the_fast_path_equals_the_full_eigenvectors_with_d1_d2(cropped_delta_table):
+    """The D1, D2 terms act on the structural states: the fast path's participation (null vectors of T(s)) must
+    equal the participation of [xi; xi'] in the full first-order eigenvectors (to 1e-6)."""
+    from romams_core.flutter.eigen import _full_vectors, _tustin_matrices, struct_vectors
+    from romams_core.flutter.model import make_model
+
+    mesh, modal, table = cropped_delta_table
+    fit = fit_rfa(table.k, table.h)
+    m = make_model(modal.omega, np.zeros(4), mesh.c_ref, fit.rfa.state_space(), "tustin")
+    v, q = np.array([150.0, 260.0]), np.array([3000.0, 9000.0])
+    lam, vec = np.linalg.eig(_tustin_matrices(m, v, q))
+    _, content_full = _full_vectors(vec, m.omega)
+    fast = struct_vectors(m, lam.astype(complex), v, q)
+    assert fast is not None
+    np.testing.assert_allclose(fast[1], content_full, atol=1e-6)

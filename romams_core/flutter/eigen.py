@@ -19,7 +19,9 @@ call. Every eigenvalue s (rad/s) comes with
 Fast path (Tustin, diagonalizable aero matrix): LAPACK eigenvalues only; for each eigenvalue the right and
 left null vectors xi, eta of T(s) = s^2 I + s G + K - q H(s) (one inverse-iteration step each, k x k) give
 xs = [xi; s xi] and, with the aero states eliminated, P_s = eta^H (2 s I + G) xi / (eta^H T'(s) xi) and
-P_a = -q eta^H H'(s) xi / (eta^H T'(s) xi). Reference path (defective aero matrix, zero-order hold): LAPACK
+P_a = -q eta^H H'(s) xi / (eta^H T'(s) xi). The D1, D2 terms of a continuous aero model change the structural
+mass and damping (no aero states): their derivative counts in P_s, as the full eigenvectors' participation of
+[xi; xi'] does. Reference path (defective aero matrix, zero-order hold): LAPACK
 eigenvectors V and the left ones from V^-1.
 """
 
@@ -137,10 +139,11 @@ def struct_vectors(
         zc = (rhs.conj().T @ ti)[:, 0, :]  # eta^H
         x = np.concatenate([y, (ss[:, None] / m.omega) * y], axis=1)
         x /= np.linalg.norm(x, axis=1, keepdims=True)
-        ps = np.abs(np.sum(zc * (2.0 * ss[:, None] + g) * y, axis=1))
-        dta = rr[nm:].reshape(-1, k, k) * (q[rows] / vc)[:, None, None]  # -q dH/ds
-        if dt_rate is not None:
-            dta = dta + dt_rate.reshape(-1, k, k)
+        dts = (2.0 * ss[:, None] + g) * y  # structural part of dT/ds applied to xi
+        if dt_rate is not None:  # D1, D2 act on the structural states (mass and damping): structural participation
+            dts = dts + (dt_rate.reshape(-1, k, k) @ y[:, :, None])[:, :, 0]
+        ps = np.abs(np.sum(zc * dts, axis=1))
+        dta = rr[nm:].reshape(-1, k, k) * (q[rows] / vc)[:, None, None]  # -q dH_lag/ds (the aero states' part)
         pa = np.abs((zc[:, None, :] @ (dta @ y[:, :, None]))[:, 0, 0])
         cont = ps / (ps + pa)
     if not (np.isfinite(x).all() and np.isfinite(cont).all()):
