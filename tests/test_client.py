@@ -106,7 +106,7 @@ def test_training_is_listed_and_resubmission_returns_existing(client, wing) -> N
 
 
 def test_failed_job_raises_job_error(client, wing) -> None:
-    items = client.start_training(wing, 0.8, options={"nrmse_tol": 1e-12})
+    items = client.start_training(wing, 0.8, solver="uvlm", options={"nrmse_tol": 1e-12})
     with pytest.raises(JobError) as ei:
         client.wait_job(items[0]["job_id"], timeout_s=300, progress=False)
     assert ei.value.job["status"] == "failed"
