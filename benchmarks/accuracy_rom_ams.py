@@ -9,7 +9,7 @@ worst case, split by whether every mode fits with MAC >= 0.99. Flutter speeds ar
 airspeeds sqrt(2 q_f / rho_0) (``v_*`` keys), i.e. through q_f, whatever the sweep.
 
 With ``--fom N`` the first N designs also get the full-order reference at every Mach: p-k with the solver's
-own GAF on the design's modes (``romams_core.pk.fom_flutter``), and the ROM-AMS and ROM-PMS
+own GAF on the design's modes (``romams_core.pk_reference.fom_flutter``), and the ROM-AMS and ROM-PMS
 errors against it are reported (rows: ``v_fom``, ``v_error_ams_fom_pct``, ``v_error_pms_fom_pct``; summary
 ``fom``).
 
@@ -32,7 +32,7 @@ from romams_core.basis import build_basis_for_wing, project, random_designs
 from romams_core.evaluate import evaluate_structure
 from romams_core.flutter import flutter_analysis
 from romams_core.mesh import standard_mesh
-from romams_core.pk import fom_flutter
+from romams_core.pk_reference import fom_flutter
 from romams_core.structure.modal import modal_analysis
 from romams_core.wing import template
 

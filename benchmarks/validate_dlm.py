@@ -26,7 +26,7 @@ from romams.services.training import rom_identity, train
 from romams_core.aero.dlm import DlmSolver
 from romams_core.flutter import flutter_analysis
 from romams_core.mesh import standard_mesh
-from romams_core.pk import fom_flutter
+from romams_core.pk_reference import fom_flutter
 from romams_core.structure.modal import modal_analysis
 from romams_core.wing import template
 

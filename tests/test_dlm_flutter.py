@@ -15,7 +15,7 @@ from romams_core.basis import build_basis_for_wing, project, random_designs
 from romams_core.evaluate import evaluate_structure
 from romams_core.flutter import flutter_analysis
 from romams_core.mesh import standard_mesh
-from romams_core.pk import fom_flutter
+from romams_core.pk_reference import fom_flutter
 from romams_core.structure.modal import modal_analysis
 from romams_core.training_rfa import train_rfa_rom
 from romams_core.wing import template

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 from scipy.special import hankel2
 
-from romams_core.pk import AeroTable, fom_flutter, pk_flutter, uvlm_table
+from romams_core.pk import AeroTable, pk_flutter
+from romams_core.pk_reference import fom_flutter, uvlm_table
 from romams_core.typical_section import TypicalSection, modes
 
 HP = TypicalSection()  # a = -0.2, x_alpha = 0.1, r_alpha^2 = 0.24, w_h/w_a = 0.4, mu = 20

@@ -12,7 +12,8 @@ import pytest
 from romams_core.errors import InputError
 from romams_core.flutter import flutter_analysis
 from romams_core.mesh import standard_mesh
-from romams_core.pk import pk_flutter, uvlm_table
+from romams_core.pk import pk_flutter
+from romams_core.pk_reference import uvlm_table
 from romams_core.rfa import RogerRfa, fit_rfa
 from romams_core.statespace import ContinuousSS, to_modal
 from romams_core.structure.modal import modal_analysis
