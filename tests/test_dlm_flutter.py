@@ -86,3 +86,26 @@ def test_agard_445_6_flutter_speed_within_6_percent_and_frequency_falling_with_m
         omegas.append(r.omega_flutter_rad_s)
     assert omegas[0] > omegas[1] > omegas[2]  # experiment: 128.1, 113.0, 101.1 rad/s
     assert omegas[2] == pytest.approx(101.1, rel=0.1)
+
+
+@pytest.mark.slow
+def test_rfa_rom_flutter_point_does_not_depend_on_the_sweep_points():
+    """As for the ARX ROMs (tests/test_flutter_sweep_independence.py): 12 and 60 coarse points give the same mode
+    and q_f within 0.1 %, no lag root taken (benchmark run: 20 designs x 5 Machs x 2 sweeps x 12/24/60/200
+    points, largest deviation 7.1e-5)."""
+    from romams_core.statespace import to_modal
+
+    wing = template("cropped-delta")
+    mesh = standard_mesh(wing.planform)
+    basis = build_basis_for_wing(wing, samples=12, modes=4, mac_threshold=0.9999, max_basis=8)
+    roms = {m: train_rfa_rom(mesh, basis.shapes, m, DlmSolver()) for m in (0.87, 0.95)}
+    for x in [None, *random_designs(wing, 2, seed=3)]:
+        modal = modal_analysis(wing, x, 4, mesh)
+        gamma = project(basis.shapes, modal.shapes).gamma
+        for mach, rom in roms.items():
+            for sweep in ("constant-speed", "constant-density"):
+                a, b = (flutter_analysis(modal.omega, to_modal(rom.ss, gamma), mesh.c_ref, mach, sweep=sweep,
+                                         n_points=n) for n in (12, 60))
+                assert a.flutter_found and b.flutter_found and a.flutter_mode == b.flutter_mode
+                assert not (a.lag_root_flagged or b.lag_root_flagged)
+                assert a.q_flutter_pa == pytest.approx(b.q_flutter_pa, rel=1e-3)
