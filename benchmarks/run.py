@@ -2,6 +2,8 @@
 
     python -m benchmarks.run [--quick] [--json] [--all]
 
+- eig_calibration_ms: median time of numpy.linalg.eigvals on a fixed set of 40 x 40 real matrices, measured
+  in the same run; structure_eval_over_eig = structure_eval_ms / eig_calibration_ms is machine-independent.
 - structure_eval_ms: one structure = modal analysis + flutter at 5 Mach numbers (projection on the
   basis, ROM to modal coordinates, flutter search, envelope), in process, one core, median over
   random designs; the basis and the ROMs of ``--solver`` (default dlm: rational-function ROMs; uvlm: ARX)
@@ -92,6 +94,20 @@ def build_models(samples: int = 25, machs: tuple[float, ...] = MACHS) -> dict[st
         roms[float(m)] = train(mesh, basis.shapes, float(m), _ident())
         t_train.append(time.perf_counter() - t0)
     return {"wing": wing, "mesh": mesh, "basis": basis, "roms": roms, "basis_s": t_basis, "train_s": t_train}
+
+
+def eig_calibration_ms(n_matrices: int = 40, repeats: int = 5) -> float:
+    """Median CPU time (ms) of numpy.linalg.eigvals on a fixed seeded set of 40 x 40 real matrices: the unit
+    against which the evaluation times are reported as machine-independent ratios."""
+    mats = np.random.default_rng(12345).normal(size=(n_matrices, 40, 40))
+    np.linalg.eigvals(mats[0])  # warm-up
+    times = []
+    for _ in range(repeats):  # a few passes over the set
+        for a in mats:
+            t0 = time.process_time()
+            np.linalg.eigvals(a)
+            times.append(time.process_time() - t0)
+    return 1e3 * float(np.median(times))
 
 
 def structure_eval(models: dict[str, Any], n_designs: int, seed: int = 1) -> dict[str, Any]:
@@ -381,6 +397,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     models = build_models(samples=25)
     se = structure_eval(models, n_designs=10 if quick else 40)
     out["structure_eval_ms"] = se["structure_eval_ms"]
+    out["eig_calibration_ms"] = eig_calibration_ms()
+    out["structure_eval_over_eig"] = se["structure_eval_ms"] / out["eig_calibration_ms"]
     out["structure_eval"] = se
     log(f"structure_eval_ms = {se['structure_eval_ms']:.1f}")
     pms = rom_pms_cost(models, n_designs=1 if quick else 3, ams_ms=se["structure_eval_ms"])
