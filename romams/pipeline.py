@@ -111,8 +111,7 @@ def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], processes: int 
 def train_shapes(mesh: StandardMesh, shapes: np.ndarray, machs: Sequence[float], ident: Mapping[str, Any],
                  processes: int | None = None) -> list[Any]:
     """Train one ROM per Mach on ``shapes`` [N, m] (in parallel processes); returns TrainedRoms in order."""
-    ident = dict(ident)
-    return parallel_map(_train_one, [(mesh, shapes, float(m), ident) for m in machs], processes)
+    return train_shape_sets(mesh, [shapes], machs, ident, processes)[0]
 
 
 def train_shape_sets(mesh: StandardMesh, shape_sets: Sequence[np.ndarray], machs: Sequence[float],

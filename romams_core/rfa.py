@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize
@@ -41,7 +42,7 @@ from scipy.optimize import minimize
 from romams_core.errors import InputError
 from romams_core.statespace import ContinuousSS
 
-__all__ = ["RogerRfa", "RfaFit", "fit_rfa", "entry_scale", "fit_errors", "configurations"]
+__all__ = ["RogerRfa", "RfaFit", "fit_rfa", "check_lag_settings", "entry_scale", "fit_errors", "configurations"]
 
 DEFAULT_TOL = 0.005  # worst weighted entry error accepted by the automatic lag choice
 DEFAULT_MAX_LAGS = 8  # most lag-state units (a real lag is 1, a complex pair 2) the automatic choice tries
@@ -192,6 +193,19 @@ def _start(nl: int, npair: int, k_max: float) -> tuple[np.ndarray, list[tuple[fl
     return x, [log_b] * nl + [log_b, (0.05, 0.5 * math.pi - 0.05)] * npair
 
 
+def check_lag_settings(n_lags: Any, max_lags: Any, tol: Any, tol_field: str = "tol") -> None:
+    """Validate the lag-choice settings of :func:`fit_rfa` (InputError naming the field): lag counts are integers
+    in 0..12 (``n_lags`` may be None), the tolerance a finite number > 0 (named ``tol_field``)."""
+    for name, v, optional in (("n_lags", n_lags, True), ("max_lags", max_lags, False)):
+        if v is None and optional:
+            continue
+        if not (isinstance(v, int | np.integer) and not isinstance(v, bool) and 0 <= v <= 12):
+            raise InputError(name, f"must be an integer in 0..12, got {v!r}")
+    if not (isinstance(tol, int | float | np.floating) and not isinstance(tol, bool) and math.isfinite(tol)
+            and tol > 0):
+        raise InputError(tol_field, f"must be a finite number > 0, got {tol!r}")
+
+
 def fit_rfa(
     k: np.ndarray,
     h: np.ndarray,
@@ -213,12 +227,7 @@ def fit_rfa(
         raise InputError("k_values", "need at least 3 finite, ascending reduced frequencies >= 0")
     if h.ndim != 3 or h.shape[0] != k.size or h.shape[1] != h.shape[2] or not np.all(np.isfinite(h)):
         raise InputError("gaf", f"must be finite with shape ({k.size}, m, m), got {h.shape}")
-    if n_lags is not None and not (isinstance(n_lags, int) and 0 <= n_lags <= 12):
-        raise InputError("n_lags", f"must be an integer in 0..12, got {n_lags!r}")
-    if not (isinstance(max_lags, int) and 0 <= max_lags <= 12):
-        raise InputError("max_lags", f"must be an integer in 0..12, got {max_lags!r}")
-    if not (math.isfinite(tol) and tol > 0):
-        raise InputError("tol", f"must be a finite number > 0, got {tol!r}")
+    check_lag_settings(n_lags, max_lags, tol)
     a0 = h[0].real.copy() if k[0] == 0.0 else None
     n_free = 2 + (0 if a0 is not None else 1)
     n_data = 2 * (k.size - (1 if a0 is not None else 0))

@@ -19,7 +19,15 @@ from romams_core.aero.protocol import ProgressFn, check_k_values
 from romams_core.ct_reduction import balanced_realization, spa_reduce
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
-from romams_core.rfa import DEFAULT_MAX_LAGS, DEFAULT_TOL, RogerRfa, entry_scale, fit_errors, fit_rfa
+from romams_core.rfa import (
+    DEFAULT_MAX_LAGS,
+    DEFAULT_TOL,
+    RogerRfa,
+    check_lag_settings,
+    entry_scale,
+    fit_errors,
+    fit_rfa,
+)
 from romams_core.statespace import ContinuousSS
 
 #: Default table of reduced frequencies (on the semichord): dense where the lag terms bend, to k = 2.
@@ -94,6 +102,24 @@ class TrainedRfaRom:
         }
 
 
+def check_rfa_settings(k_values: Any = DEFAULT_K_VALUES, n_lags: Any = None, max_lags: Any = DEFAULT_MAX_LAGS,
+                       fit_tol: Any = DEFAULT_TOL, reduce_order: Any = None) -> np.ndarray:
+    """Validated settings of :func:`train_rfa_rom` (InputError naming the setting); returns the k table.
+
+    The one check of these settings: the training calls it before its solver runs, and the service before it
+    queues a training job.
+    """
+    k = check_k_values(k_values)
+    if k.size < 4:
+        raise InputError("k_values", f"need at least 4 reduced frequencies for the RFA, got {k.size}")
+    check_lag_settings(n_lags, max_lags, fit_tol, tol_field="fit_tol")
+    if not (reduce_order is None or reduce_order == "auto"
+            or (isinstance(reduce_order, int | np.integer) and not isinstance(reduce_order, bool)
+                and reduce_order >= 0)):
+        raise InputError("reduce_order", f"must be 'auto', an integer >= 0 or None, got {reduce_order!r}")
+    return k
+
+
 def train_rfa_rom(
     mesh: StandardMesh,
     shapes: np.ndarray,
@@ -119,9 +145,7 @@ def train_rfa_rom(
     follows the solver (90 %) and the fit; a ``Cancelled`` raised by it propagates.
     """
     t0 = time.perf_counter()
-    k = check_k_values(k_values)
-    if k.size < 4:
-        raise InputError("k_values", f"need at least 4 reduced frequencies for the RFA, got {k.size}")
+    k = check_rfa_settings(k_values, n_lags, max_lags, fit_tol, reduce_order)  # before the solver runs
 
     def solver_progress(frac: float, msg: str) -> None:
         if progress is not None:
@@ -165,10 +189,8 @@ def reduce_model(full: ContinuousSS, k: np.ndarray, gaf: np.ndarray, fit_error: 
     if reduce_order is None or full.n_states == 0:
         return full, np.zeros(0)
     bal, hsv = balanced_realization(full)
-    if reduce_order != "auto":
-        if not isinstance(reduce_order, int | np.integer):
-            raise InputError("reduce_order", f"must be 'auto', an integer or None, got {reduce_order!r}")
-        return spa_reduce(bal, int(min(reduce_order, bal.n_states))), hsv
+    if reduce_order != "auto":  # an integer (check_rfa_settings)
+        return spa_reduce(bal, int(min(int(reduce_order), bal.n_states))), hsv
     scale = entry_scale(gaf)
     fine = np.linspace(0.0, 1.25 * float(k[-1]), 41)
     ref = full.freqresp(fine)

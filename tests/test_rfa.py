@@ -152,3 +152,28 @@ def test_structural_content_of_the_fast_path_equals_the_full_eigenvectors_with_d
     fast = struct_vectors(m, lam.astype(complex), v, q)
     assert fast is not None
     np.testing.assert_allclose(fast[1], content_full, atol=1e-6)
+
+
+@pytest.mark.parametrize(("kw", "field"), [
+    ({"k_values": []}, "k_values"),
+    ({"k_values": [0.0, 0.1, 0.2]}, "k_values"),  # fewer than 4
+    ({"n_lags": 13}, "n_lags"),
+    ({"max_lags": True}, "max_lags"),
+    ({"fit_tol": 0.0}, "fit_tol"),
+    ({"reduce_order": "some"}, "reduce_order"),
+])
+def test_training_settings_are_checked_before_the_solver_runs(kw, field):
+    """train_rfa_rom validates its settings (check_rfa_settings, also used by the API) before the solver's run."""
+    from romams_core.training_rfa import train_rfa_rom
+
+    class NeverCalled:
+        name = "never"
+
+        def gaf(self, *args, **kwargs):
+            raise AssertionError("the solver ran before the settings were checked")
+
+    wing = template("cropped-delta")
+    mesh = standard_mesh(wing.planform)
+    with pytest.raises(InputError) as e:
+        train_rfa_rom(mesh, np.zeros((mesh.n_nodes, 2)), 0.5, NeverCalled(), **kw)
+    assert e.value.field == field

@@ -86,28 +86,19 @@ def allowed_options(solver: str) -> set[str]:
 
 
 def check_options(solver: str, options: Mapping[str, Any]) -> None:
-    """Validate the values of training settings that the core checks only when the job runs (InvalidInput naming
-    ``options.<name>``): the dlm's reduced-frequency table, lag counts and fit tolerance."""
-    from romams.services.errors import InvalidInput
-    from romams_core.aero.protocol import check_k_values
-    from romams_core.errors import InputError
-
+    """Validate the values of training settings before a job is queued (InvalidInput naming
+    ``options.<name>``), with the core's own check (``romams_core.training_rfa.check_rfa_settings`` for the dlm;
+    the time-domain trainer checks its settings as it starts)."""
     if not is_frequency_solver(solver):
         return
+    from romams.services.errors import InvalidInput
+    from romams_core.errors import InputError
+    from romams_core.training_rfa import check_rfa_settings
+
     try:
-        if "k_values" in options:
-            k = check_k_values(options["k_values"])
-            if k.size < 4:
-                raise InputError("k_values", f"need at least 4 reduced frequencies for the RFA, got {k.size}")
+        check_rfa_settings(**options)  # names already checked against allowed_options
     except InputError as exc:
-        raise InvalidInput("options.k_values", exc.reason) from None
-    for name in ("n_lags", "max_lags"):
-        v = options.get(name)
-        if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 12):
-            raise InvalidInput(f"options.{name}", f"must be an integer in 0..12, got {v!r}")
-    tol = options.get("fit_tol")
-    if tol is not None and not (isinstance(tol, int | float) and not isinstance(tol, bool) and tol > 0):
-        raise InvalidInput("options.fit_tol", f"must be a number > 0, got {tol!r}")
+        raise InvalidInput(f"options.{exc.field}", exc.reason) from None
 
 
 def train(mesh: Any, shapes: Any, mach: float, ident: Mapping[str, Any],
@@ -123,7 +114,7 @@ def train(mesh: Any, shapes: Any, mach: float, ident: Mapping[str, Any],
     if solver == "uvlm":  # flag shapes whose damping the lattice cannot resolve (the DLM as the independent check)
         from romams_core.aero.crosscheck import CHECK_K, uvlm_damping_warnings
 
-        k = np.array([x for x in CHECK_K if x <= float(getattr(rom, "k_max", max(CHECK_K)))])
+        k = np.array([x for x in CHECK_K if x <= rom.k_max])  # within the ROM's excitation band
         if k.size:
             rom.warnings.extend(uvlm_damping_warnings(mesh, shapes, float(mach), rom.ss.freqresp(k), k))
     return rom
