@@ -22,6 +22,7 @@ class GridSpec:
     """Cell counts and extents of a TSD grid (extents in local chords for x, root chords otherwise)."""
 
     n_chord: int = 40  # cells on the chord, cosine-clustered at LE and TE
+    cluster: float = 0.3  # weight of the cosine clustering (0 uniform); fine TE cells cut the stable time step
     n_upstream: int = 14
     n_downstream: int = 22
     x_upstream: float = 8.0  # local chords ahead of the LE
@@ -45,6 +46,8 @@ class GridSpec:
                 raise InputError(f"grid.{name}", f"must be a finite number > 0, got {v!r}")
         if self.y_outboard <= 1.0:
             raise InputError("grid.y_outboard", f"must be > 1 semispan, got {self.y_outboard}")
+        if not (isinstance(self.cluster, int | float) and 0.0 <= self.cluster <= 1.0):
+            raise InputError("grid.cluster", f"must be in [0, 1], got {self.cluster!r}")
         if self.dz0 * self.n_z >= self.z_max:
             raise InputError("grid.dz0", f"dz0 * n_z = {self.dz0 * self.n_z:g} must be below z_max = {self.z_max:g}")
 
@@ -52,7 +55,7 @@ class GridSpec:
         """The same grid with every cell count multiplied and the first heights divided by ``factor``."""
         def n(v: int) -> int:
             return max(2, int(round(v * factor)))
-        return GridSpec(n_chord=n(self.n_chord), n_upstream=n(self.n_upstream), n_downstream=n(self.n_downstream),
+        return GridSpec(n_chord=n(self.n_chord), cluster=self.cluster, n_upstream=n(self.n_upstream), n_downstream=n(self.n_downstream),
                         x_upstream=self.x_upstream, x_downstream=self.x_downstream, n_span=n(self.n_span),
                         n_outboard=n(self.n_outboard), y_outboard=self.y_outboard, n_z=n(self.n_z),
                         dz0=self.dz0 / factor, z_max=self.z_max)
@@ -153,7 +156,7 @@ def chord_faces(n: int, weight: float = 0.75) -> np.ndarray:
 
 def _xi_faces(spec: GridSpec) -> np.ndarray:
     """Streamwise faces in local chords: upstream stretch, clustered chord, downstream stretch."""
-    wing = chord_faces(spec.n_chord)
+    wing = chord_faces(spec.n_chord, spec.cluster)
     h_le, h_te = wing[1] - wing[0], wing[-1] - wing[-2]
     up = geometric_faces(h_le, spec.x_upstream, spec.n_upstream)
     down = geometric_faces(h_te, spec.x_downstream, spec.n_downstream)
@@ -182,7 +185,7 @@ def wing_grid(semispan: float, taper: float, tan_sweep: float, spec: GridSpec | 
 
 def airfoil_grid(spec: GridSpec | None = None) -> TsdGrid:
     """Span-invariant (2-D) grid: one unit-width cell in y between two symmetry planes."""
-    spec = spec or GridSpec(n_chord=60, n_upstream=24, n_downstream=24, x_upstream=20.0, x_downstream=20.0,
-                            n_z=34, dz0=0.01, z_max=20.0)
+    spec = spec or GridSpec(n_chord=50, cluster=0.0, n_upstream=24, n_downstream=24, x_upstream=20.0,
+                            x_downstream=20.0, n_z=34, dz0=0.02, z_max=20.0)
     return TsdGrid(xf=_xi_faces(spec), yf=np.array([0.0, 1.0]), zf=_z_faces(spec), semispan=math.inf,
                    tan_sweep=0.0, taper=1.0, lateral_far=False)

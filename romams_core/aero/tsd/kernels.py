@@ -83,8 +83,12 @@ def _central_eta(phi: np.ndarray, yc: np.ndarray) -> np.ndarray:
 
 @nb.njit(cache=True)
 def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, xiy_yf,
-             wing, wake, wup, wlo, gam, k0, lateral_far, rhs):  # pragma: no cover - compiled
-    """Fill ``rhs`` (the factored-step right-hand side s N) and return (max |N|, rms N) over all nodes."""
+             wing, wake, wup, wlo, gam, k0, lateral_far, far_u, far_w, rhs):  # pragma: no cover - compiled
+    """Fill ``rhs`` (the factored-step right-hand side s N) and return (max |N|, rms N) over all nodes.
+
+    ``far_u`` [2, nj, nk] and ``far_w`` [2, ni, nj]: prescribed far-field phi_x on the upstream/downstream faces
+    and phi_z on the bottom/top faces, added to the non-reflecting conditions (a 2-D vortex far field; zero in 3-D).
+    """
     ni, nj, nk = phi.shape
     a0, a1, a2, a3, b0, b1, b2, dt = tc[0], tc[1], tc[2], tc[3], tc[4], tc[5], tc[6], tc[7]
     ku, kd, kz, ky = tc[8], tc[9], tc[10], tc[11]
@@ -119,8 +123,8 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
                     xx[f] = G * py * py + c * xy * (py + H * u * py)
             pt0 = (b0 * phi[0, j, k] + b1 * p1[0, j, k] + b2 * p2[0, j, k]) / dt
             ptn = (b0 * phi[ni - 1, j, k] + b1 * p1[ni - 1, j, k] + b2 * p2[ni - 1, j, k]) / dt
-            gp[0] = _g(-ku * pt0, E, F)
-            gp[ni] = _g(-kd * ptn, E, F)
+            gp[0] = _g(far_u[0, j, k] - ku * pt0, E, F)
+            gp[ni] = _g(far_u[1, j, k] - kd * ptn, E, F)
             for i in range(ni):
                 ptt = (a0 * phi[i, j, k] + a1 * p1[i, j, k] + a2 * p2[i, j, k] + a3 * p3[i, j, k]) / (dt * dt)
                 pxt = (b0 * ux[i, j, k] + b1 * ux1[i, j, k] + b2 * ux2[i, j, k]) / dt
@@ -152,8 +156,9 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
         for i in range(ni):
             for f in range(1, nk):
                 f3[f] = c * (phi[i, j, f] - phi[i, j, f - 1]) / (zc[f] - zc[f - 1])
-            f3[0] = c * kz * (b0 * phi[i, j, 0] + b1 * p1[i, j, 0] + b2 * p2[i, j, 0]) / dt
-            f3[nk] = -c * kz * (b0 * phi[i, j, nk - 1] + b1 * p1[i, j, nk - 1] + b2 * p2[i, j, nk - 1]) / dt
+            f3[0] = c * (far_w[0, i, j] + kz * (b0 * phi[i, j, 0] + b1 * p1[i, j, 0] + b2 * p2[i, j, 0]) / dt)
+            f3[nk] = c * (far_w[1, i, j] - kz * (b0 * phi[i, j, nk - 1] + b1 * p1[i, j, nk - 1]
+                                                 + b2 * p2[i, j, nk - 1]) / dt)
             if wake[i, j]:
                 f3[k0 + 1] -= c * gam[i, j] / (zc[k0 + 1] - zc[k0])
             for k in range(nk):

@@ -1,0 +1,230 @@
+"""The transonic small-disturbance solver behind the time-domain ``UnsteadySolver`` protocol.
+
+One ``simulate`` call: grid fitted to the planform, steady mean flow about the wing's thickness (pseudo-time
+march, residual history kept), then the time-accurate run with every shape moving by its signal. The GAC are
+the perturbation about the mean flow: f_i(t) = integral((dCp(t) - dCp_mean) h_i dS) (m^3), so a ROM identified
+from them is linear about the transonic mean state (shock position and strength included).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from romams_core.aero.protocol import (
+    Cancelled,
+    ProgressFn,
+    SolverInfo,
+    check_dt_star,
+    check_mach,
+    check_shapes,
+    check_signals,
+)
+from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS, tsd_coefficients
+from romams_core.aero.tsd.flow import SteadyResult, TsdFlow
+from romams_core.aero.tsd.grid import GridSpec, TsdGrid, wing_grid
+from romams_core.errors import InputError
+from romams_core.mesh import StandardMesh
+
+#: thin-wing theory: thicker sections are refused
+MAX_THICKNESS_TO_CHORD = 0.15
+#: wing columns of the TSD grid per shape, at least (a coarser grid cannot carry the shapes' slopes)
+MIN_WING_COLUMNS_PER_SHAPE = 20
+
+
+def check_thickness(form: str | None, t_c: float) -> tuple[str | None, float]:
+    """Validate the aerodynamic thickness form (None: flat plate) and t/c (0 <= t/c <= 0.15)."""
+    from romams_core.structure.modal import thickness_form  # validates the name
+
+    if form is None or t_c == 0.0:
+        return None, 0.0
+    if not (isinstance(t_c, int | float) and math.isfinite(t_c) and 0.0 <= t_c <= MAX_THICKNESS_TO_CHORD):
+        raise InputError("thickness_to_chord",
+                         f"must be in [0, {MAX_THICKNESS_TO_CHORD}] for thin-wing (TSD) theory, got {t_c!r}")
+    thickness_form(form, np.array([0.5]))
+    return form, float(t_c)
+
+
+def mesh_interpolation(mesh: StandardMesh, xi: np.ndarray, eta: np.ndarray) -> sp.csr_matrix:
+    """Sparse [K, N] bilinear interpolation of standard-mesh nodal values at chord/span fractions xi, eta."""
+    nc, ns = mesh.n_chord, mesh.n_span
+    s = np.clip(np.asarray(xi, float), 0.0, 1.0) * nc
+    t = np.clip(np.asarray(eta, float), 0.0, 1.0) * ns
+    i = np.minimum(np.floor(s).astype(int), nc - 1)
+    j = np.minimum(np.floor(t).astype(int), ns - 1)
+    fs, ft = s - i, t - j
+    n00 = j * (nc + 1) + i
+    cols = np.column_stack([n00, n00 + 1, n00 + nc + 1, n00 + nc + 2]).ravel()
+    w = np.column_stack([(1 - fs) * (1 - ft), fs * (1 - ft), (1 - fs) * ft, fs * ft]).ravel()
+    rows = np.repeat(np.arange(s.size), 4)
+    return sp.csr_matrix((w, (rows, cols)), shape=(s.size, mesh.n_nodes))
+
+
+@dataclass
+class MeanFlow:
+    """Steady mean flow of one training run: surface Cp on the planform nodes and the convergence history."""
+
+    mach: float
+    x_over_c: np.ndarray  # [ni_wing] chord fractions of the wing nodes
+    eta: np.ndarray  # [nj_wing] span fractions of the wing node columns
+    cp_upper: np.ndarray  # [ni_wing, nj_wing]
+    cp_lower: np.ndarray
+    cp_star: float
+    steady: SteadyResult
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (lists of floats)."""
+        return {"mach": self.mach, "x_over_c": self.x_over_c.tolist(), "eta": self.eta.tolist(),
+                "cp_upper": self.cp_upper.tolist(), "cp_lower": self.cp_lower.tolist(), "cp_star": self.cp_star,
+                "steady_steps": self.steady.steps, "steady_converged": self.steady.converged,
+                "steady_seconds": self.steady.seconds,
+                "residual_history": self.steady.residual_history[:: max(1, self.steady.steps // 200)].tolist()}
+
+
+@dataclass
+class TsdSolver:
+    """Unsteady, nonlinear, conservative TSD solver (CAP-TSD family) on a sheared planform-fitted grid.
+
+    ``thickness_form``/``thickness_to_chord``: the wing section (None: flat plate); ``dt``: the largest internal
+    time step (t*), the signals' step is subdivided to meet it; ``n_sub``: Newton sub-iterations per step.
+    """
+
+    thickness_form: str | None = None
+    thickness_to_chord: float = 0.0
+    grid: GridSpec = field(default_factory=GridSpec)
+    dt: float = 0.02
+    n_sub: int = 2
+    coefficients: str = "ames"
+    steady_steps: int = 2500
+    steady_tol: float = 2e-4
+    name: str = "tsd"
+    last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.thickness_form, self.thickness_to_chord = check_thickness(self.thickness_form,
+                                                                       self.thickness_to_chord)
+        if self.coefficients not in COEFFICIENT_SETS:
+            raise InputError("coefficients", f"must be one of {COEFFICIENT_SETS}, got {self.coefficients!r}")
+        if not (math.isfinite(self.dt) and 0.0 < self.dt <= 0.2):
+            raise InputError("dt", f"must be in (0, 0.2] (t* units), got {self.dt!r}")
+
+    def info(self, mach: float) -> SolverInfo:
+        """Describe the solver and its caveats at ``mach``."""
+        warnings = []
+        if mach >= 0.98:
+            warnings.append(f"M = {mach:.3f}: near-sonic free stream, the upstream far-field condition is capped")
+        return SolverInfo(name="tsd", description=(
+            "unsteady nonlinear transonic small-disturbance potential (CAP-TSD family: approximate factorization, "
+            f"Engquist-Osher differencing, thin-wing boundary conditions; coefficients '{self.coefficients}', "
+            "isentropic and inviscid)"), warnings=warnings)
+
+    # ----- set-up -----------------------------------------------------------------------------------------------
+    def build_grid(self, mesh: StandardMesh) -> TsdGrid:
+        """Sheared grid of the mesh's planform (root chord units)."""
+        pf = mesh.planform
+        return wing_grid(pf.semispan / pf.c_ref, pf.tip_chord / pf.root_chord, math.tan(pf.sweep_le), self.grid)
+
+    def _thickness_slope(self, grid: TsdGrid) -> np.ndarray:
+        """[ni] half-thickness slope d(tau)/dx on the wing nodes (cell averages; zero off the chord)."""
+        if self.thickness_form is None:
+            return np.zeros(grid.xc.size)
+        from romams_core.structure.modal import thickness_form
+
+        tform = thickness_form(self.thickness_form, np.clip(grid.xf, 0.0, 1.0))
+        slope = 0.5 * self.thickness_to_chord * np.diff(tform) / np.diff(grid.xf)
+        return np.where((grid.xc > 0) & (grid.xc < 1), slope, 0.0)
+
+    def _shape_operators(self, mesh: StandardMesh, grid: TsdGrid, shapes: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Shape values h/c_ref and slopes dh/dx on the wing nodes, each [n_wing, m], and the node mask."""
+        wing = grid.wing
+        ii, jj = np.nonzero(wing)
+        eta = grid.yc[jj] / grid.semispan
+        c_loc = grid.chord(grid.yc[jj])
+        h = mesh_interpolation(mesh, grid.xc[ii], eta) @ shapes / mesh.c_ref
+        left = mesh_interpolation(mesh, grid.xf[ii], eta) @ shapes / mesh.c_ref
+        right = mesh_interpolation(mesh, grid.xf[ii + 1], eta) @ shapes / mesh.c_ref
+        slope = (right - left) / (c_loc * (grid.xf[ii + 1] - grid.xf[ii]))[:, None]
+        return np.asarray(h), np.asarray(slope), wing
+
+    def check_grid(self, grid: TsdGrid, m: int) -> None:
+        """Refuse a grid too coarse for m shapes."""
+        n_cols = int(grid.wing.sum())
+        if n_cols < MIN_WING_COLUMNS_PER_SHAPE * m:
+            raise InputError("grid", f"{n_cols} wing node columns cannot carry {m} shapes; "
+                             f"need at least {MIN_WING_COLUMNS_PER_SHAPE * m} (refine grid.n_chord or grid.n_span)")
+
+    # ----- runs -------------------------------------------------------------------------------------------------
+    def mean_flow(self, mesh: StandardMesh, mach: float, progress: ProgressFn | None = None,
+                  share: float = 1.0) -> TsdFlow:
+        """Converged steady flow about the wing's thickness at ``mach``; keeps its Cp in ``last_mean_flow``."""
+        mach = check_mach(mach, upper=1.0)
+        grid = self.build_grid(mesh)
+        flow = TsdFlow(grid, tsd_coefficients(mach, self.coefficients))
+        slope = self._thickness_slope(grid)[:, None]
+        flow.w_up[...] = np.where(grid.wing, slope, 0.0)
+        flow.w_lo[...] = np.where(grid.wing, -slope, 0.0)
+
+        def check(step: int, nmax: float, change: float) -> None:
+            if progress is not None and (step % 25 == 0 or step == 1):
+                progress(share * min(1.0, step / self.steady_steps),
+                         f"steady mean flow: step {step}, residual {nmax:.2e}, dphi/dt {change:.2e}")
+
+        result = flow.solve_steady(dt=self.dt, max_steps=self.steady_steps, tol=self.steady_tol, n_sub=self.n_sub,
+                                   check=check)
+        if not np.all(np.isfinite(flow.phi)):
+            raise RuntimeError(f"TSD steady solution diverged at M = {mach} (reduce dt or refine the grid)")
+        up, lo = flow.surface_cp()
+        iw = np.flatnonzero((grid.xc > 0) & (grid.xc < 1))
+        jw = np.flatnonzero(grid.yc < grid.semispan)
+        self.last_mean_flow = MeanFlow(mach=mach, x_over_c=grid.xc[iw], eta=grid.yc[jw] / grid.semispan,
+                                       cp_upper=up[np.ix_(iw, jw)], cp_lower=lo[np.ix_(iw, jw)],
+                                       cp_star=flow.coef.cp_star, steady=result)
+        return flow
+
+    def simulate(self, mesh: StandardMesh, shapes: np.ndarray, signals: np.ndarray, mach: float, dt_star: float,
+                 progress: ProgressFn | None = None) -> np.ndarray:
+        """GAC [T, m] (m^3) of shapes [N, m] (m) moving by signals [T, m], about the steady mean flow at ``mach``."""
+        mach = check_mach(mach, upper=1.0)
+        dt_star = check_dt_star(dt_star)
+        shapes = check_shapes(mesh, shapes)
+        signals = check_signals(signals, shapes.shape[1])
+        grid = self.build_grid(mesh)
+        self.check_grid(grid, shapes.shape[1])
+        flow = self.mean_flow(mesh, mach, progress, share=0.2)
+        h, hx, wing = self._shape_operators(mesh, grid, shapes)
+        w_up0, w_lo0 = flow.w_up[wing].copy(), flow.w_lo[wing].copy()
+        dy = np.broadcast_to(np.diff(grid.yf)[None, :], wing.shape)[wing]
+        weights = h * (dy * mesh.c_ref ** 3)[:, None]  # [n_wing, m]: cell lift (c_ref units) -> GAC (m^3)
+        f_mean = flow.cell_lift()[wing] @ weights
+        n_int = max(1, math.ceil(dt_star / self.dt - 1e-9))
+        dt = dt_star / n_int
+        n_t = signals.shape[0]
+        padded = np.vstack([np.zeros((1, signals.shape[1])), signals])  # u = 0 one step before n = 0
+        gac = np.zeros((n_t, shapes.shape[1]))
+        t_wall = time.perf_counter()
+        flow.start_unsteady()
+        for n in range(n_t):
+            for sub in range(1, n_int + 1):
+                frac = sub / n_int
+                u = (1.0 - frac) * padded[n] + frac * padded[n + 1]
+                udot = (padded[n + 1] - padded[n]) / dt_star
+                w_mod = hx @ u + h @ udot
+                flow.w_up[wing] = w_up0 + w_mod
+                flow.w_lo[wing] = w_lo0 + w_mod
+                flow.step(dt, self.n_sub)
+            gac[n] = flow.cell_lift(dt)[wing] @ weights - f_mean
+            if not np.all(np.isfinite(gac[n])):
+                raise RuntimeError(f"TSD unsteady run diverged at step {n} (M = {mach}); reduce dt")
+            if progress is not None and (n % 20 == 0 or n == n_t - 1):
+                progress(0.2 + 0.8 * (n + 1) / n_t,
+                         f"unsteady: step {n + 1}/{n_t} ({time.perf_counter() - t_wall:.0f} s)")
+        return gac
+
+
+__all__ = ["TsdSolver", "MeanFlow", "Cancelled", "check_thickness", "mesh_interpolation"]
