@@ -61,8 +61,9 @@ class RomRequest(_Strict):
     """ROM training: one Mach (``mach``) or several (``machs``), solver and ARX orders (Mach 0: incompressible).
 
     ``solver``: "dlm" (default; doublet lattice, frequency domain, rational-function ROM), "uvlm" (time domain,
-    ARX ROM; exact for incompressible flow, its phase error grows above M 0.5) or "tsd" (transonic, when
-    installed). ``na``/``nb`` are the ARX orders of a time-domain solver (ignored, stored as 0, for "dlm").
+    ARX ROM; exact for incompressible flow, its phase error grows above M 0.5) or "tsd" (transonic small
+    disturbance, nonlinear, 0 < M < 1: an ARX ROM about the steady transonic mean flow of the wing's section;
+    minutes per Mach). ``na``/``nb`` are the ARX orders of a time-domain solver (ignored, stored as 0, for "dlm").
     """
 
     mach: FiniteFloat | None = Field(default=None, ge=0.0, lt=1.5)
@@ -72,7 +73,8 @@ class RomRequest(_Strict):
     nb: int = Field(default=8, ge=1, le=40)
     basis_id: int | None = None
     options: dict[str, Any] = Field(default_factory=dict, description="extra keyword settings of the solver's "
-                                    "training function (train_rfa_rom for dlm, train_rom for uvlm/tsd)")
+                                    "training function (train_rfa_rom for dlm, train_rom for uvlm, "
+                                    "train_tsd_rom for tsd)")
 
     @model_validator(mode="after")
     def _one_mach_field(self) -> RomRequest:

@@ -74,6 +74,8 @@ class TrainedRom:
     train_seconds: float = 0.0
     solver_seconds: float = 0.0
     ar_ridge: float = 0.0  # AR-only regularization used (0 unless the plain fit was unstable)
+    mean_flow: dict | None = None  # transonic solvers: the steady mean flow (surface Cp, convergence history)
+    linearity_error: float | None = None  # transonic solvers: |2 GAC(u/2) - GAC(u)| / |GAC(u)| when checked
 
     def summary(self) -> dict[str, object]:
         """Small JSON-able summary (floats and lists)."""
@@ -90,6 +92,9 @@ class TrainedRom:
             "spectral_radius": self.spectral_radius,
             "train_seconds": self.train_seconds,
             "warnings": list(self.warnings),
+            **({"mean_flow_converged": self.mean_flow.get("steady_converged"),
+                "mean_flow_steps": self.mean_flow.get("steady_steps")} if self.mean_flow else {}),
+            **({"linearity_error": self.linearity_error} if self.linearity_error is not None else {}),
         }
 
 
@@ -120,11 +125,13 @@ def train_rom(
     hsv_tol: float | None = None,
     reduce_tol: float = 0.002,
     progress: ProgressFn | None = None,
+    displacement_fraction: float = 0.01,
 ) -> TrainedRom:
     """Identify an ARX ROM of ``solver`` for shapes [N, m] (m) at ``mach``; one solver run trains and validates.
 
     Signals: one band-limited (0 < k <= k_max on the root semichord) uncorrelated signal per shape, peak
-    surface displacement 1 % of c_ref; run as [train | validation] in one call. The ARX (orders na, nb, ridge)
+    surface displacement ``displacement_fraction`` of c_ref (1 %); run as [train | validation] in one call.
+    The ARX (orders na, nb, ridge)
     is fitted on the training half and checked in free run on the validation half: any output with NRMSE
     > nrmse_tol raises TrainingError naming it, as does a model that cannot be stabilized (unstable, unexcited
     ARX poles are reflected into the unit circle, with a warning). Reduction (default "auto"; None keeps the
@@ -144,7 +151,8 @@ def train_rom(
         n_steps = default_n_steps(m, na, nb, dt_star, k_max)
     if not (isinstance(n_steps, int | np.integer) and n_steps >= 16):
         raise InputError("n_steps", f"must be an integer >= 16, got {n_steps!r}")
-    exc = excitation_signals(shapes, mesh.c_ref, int(n_steps), dt_star, k_max=k_max, seed=seed)
+    exc = excitation_signals(shapes, mesh.c_ref, int(n_steps), dt_star, k_max=k_max, seed=seed,
+                             displacement_fraction=displacement_fraction)
 
     def _solver_progress(frac: float, msg: str) -> None:
         if progress is not None:

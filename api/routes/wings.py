@@ -122,9 +122,10 @@ def list_bases(wing: str, svc: Service = Depends(service)) -> list[dict[str, Any
     return out
 
 
-def _train_options(solver: str, options: dict[str, Any]) -> dict[str, Any]:
-    """Validate extra training keyword settings of ``solver`` (names and JSON scalar values)."""
-    if not options:
+def _train_options(solver: str, options: dict[str, Any], n_shapes: int | None = None) -> dict[str, Any]:
+    """Validate extra training keyword settings of ``solver`` (names and JSON scalar values; for the TSD also
+    the grid against ``n_shapes`` basis shapes)."""
+    if not options and solver != "tsd":
         return {}
     allowed = allowed_options(solver)
     for k, v in options.items():
@@ -138,7 +139,7 @@ def _train_options(solver: str, options: dict[str, Any]) -> dict[str, Any]:
         elif not isinstance(v, bool | int | float | str | type(None)):
             raise invalid(f"options.{k}", "must be a number, a list of numbers, a string, a boolean or null")
     try:
-        check_options(solver, options)
+        check_options(solver, options, n_shapes)
     except ServiceError as exc:
         raise invalid(exc.field or "options", exc.reason) from None
     return dict(sorted(options.items()))
@@ -147,17 +148,24 @@ def _train_options(solver: str, options: dict[str, Any]) -> dict[str, Any]:
 @router.post("/wings/{wing}/roms", status_code=202, dependencies=[Depends(require_key)])
 def start_training(wing: str, body: RomRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Train ROMs: one job per Mach; an identical request returns the existing model or the running job."""
-    wid, _ = wing_or_404(svc, wing)
+    wid, wdef = wing_or_404(svc, wing)
     basis_id = resolve_basis_id(svc.store, wid, body.basis_id)
-    if body.solver in ("uvlm", "dlm"):
-        bad = [m for m in ([body.mach] if body.mach is not None else body.machs or []) if m >= 1.0]
+    bad = [m for m in ([body.mach] if body.mach is not None else body.machs or []) if m >= 1.0]
+    if bad:
+        what = "TSD solver (until supersonic free streams are supported)" if body.solver == "tsd" else \
+            f"linear {body.solver.upper()}"
+        raise invalid("mach" if body.mach is not None else "machs",
+                      f"the {what} is subsonic only (Mach < 1), got {bad[0]}")
+    if body.solver == "tsd":
+        bad = [m for m in ([body.mach] if body.mach is not None else body.machs or []) if m <= 0.0]
         if bad:
             raise invalid("mach" if body.mach is not None else "machs",
-                          f"the linear {body.solver.upper()} is subsonic only (Mach < 1), got {bad[0]}")
+                          f"the TSD solver needs Mach > 0 (it is a compressible formulation), got {bad[0]}")
     if not available(body.solver):
         raise invalid("solver", f"the solver {body.solver!r} is not available on this server")
-    options = _train_options(body.solver, body.options)
-    identity = rom_identity(body.solver, body.na, body.nb, options)
+    n_shapes = _basis_or_404(svc, basis_id).n_basis if body.solver == "tsd" else None
+    options = _train_options(body.solver, body.options, n_shapes)
+    identity = rom_identity(body.solver, body.na, body.nb, options, wing=wdef)
     machs = [float(body.mach)] if body.mach is not None else [float(m) for m in body.machs or []]
     if len({round(m, 6) for m in machs}) != len(machs):
         raise invalid("machs", "contains duplicates")

@@ -109,7 +109,7 @@ def flutter_command(
     if solver not in SOLVERS or not available(solver):
         raise typer.BadParameter(f"unknown or unavailable solver {solver!r}; one of "
                                  f"{', '.join(x for x in SOLVERS if available(x))}", param_hint="--solver")
-    ident = rom_identity(solver, na, nb)
+    ident = rom_identity(solver, na, nb, wing=w)
     try:
         models = cli_models(store, wing_id, w, machs, ident, basis_id=basis_id, samples=samples, modes=n_modes,
                             mac_threshold=mac)

@@ -10,7 +10,8 @@ import typer
 
 from romams.cli.app import app
 from romams.pipeline import ensure_basis, ensure_roms, resolve_wing, rom_identity
-from romams.services.training import DEFAULT_SOLVER, SOLVERS, is_frequency_solver, quality_line
+from romams.services.errors import ServiceError
+from romams.services.training import DEFAULT_SOLVER, SOLVERS, check_options, is_frequency_solver, quality_line
 
 
 def _reduce_option(value: str | None) -> int | str | None:
@@ -33,7 +34,8 @@ def train_command(
     wing: str = typer.Option("cropped-delta", "--wing", help="stored wing name / id, or a template name"),
     mach: float = typer.Option(0.87, "--mach", min=0.0, max=0.99, help="free-stream Mach number"),
     solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver: dlm (doublet lattice, "
-                               "rational-function ROM), uvlm (time domain, ARX ROM) or tsd (when installed)"),
+                               "rational-function ROM), uvlm (time domain, ARX ROM) or tsd (transonic small "
+                               "disturbance, minutes per Mach)"),
     na: int = typer.Option(8, "--na", min=0, max=64, help="ARX output delay order (time-domain solvers)"),
     nb: int = typer.Option(8, "--nb", min=1, max=64, help="ARX input delay order (time-domain solvers)"),
     reduce: str | None = typer.Option(None, "--reduce", help="balanced reduction of the ROM: 'auto' or a state "
@@ -41,6 +43,10 @@ def train_command(
     n_steps: int | None = typer.Option(None, "--n-steps", min=16, help="ARX: signal length (steps)"),
     seed: int = typer.Option(0, "--seed", help="ARX: seed of the excitation signals"),
     n_lags: int | None = typer.Option(None, "--n-lags", min=0, max=12, help="dlm: RFA lag roots (default: automatic)"),
+    grid_scale: float | None = typer.Option(None, "--grid-scale", help="tsd: cell counts of the default grid "
+                                            "multiplied by this (0.25-4; 0.5 is a quick run)"),
+    linearity_check: bool = typer.Option(False, "--linearity-check", help="tsd: rerun at half amplitude and report "
+                                         "the deviation from linear scaling"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
     plot: Path | None = typer.Option(None, "--plot", help="write PNG figures (signals, validation) here"),
 ) -> None:
@@ -67,13 +73,25 @@ def train_command(
             options["n_lags"] = n_lags
     elif n_lags is not None:
         raise typer.BadParameter(f"applies to a frequency-domain solver (dlm), not {solver}", param_hint="--n-lags")
+    if solver == "tsd":
+        if grid_scale is not None:
+            options["grid_scale"] = grid_scale
+        if linearity_check:
+            options["linearity_check"] = True
+    elif grid_scale is not None or linearity_check:
+        raise typer.BadParameter(f"applies to the transonic solver (tsd), not {solver}",
+                                 param_hint="--grid-scale/--linearity-check")
     store = open_store()
     try:
         wing_id, w = resolve_wing(store, wing)
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--wing") from None
     basis_id, basis = ensure_basis(store, wing_id, w)  # says on stderr when it builds one
-    ident = rom_identity(solver, na, nb, options)
+    ident = rom_identity(solver, na, nb, options, wing=w)
+    try:
+        check_options(solver, ident["options"], basis.n_basis)
+    except ServiceError as exc:
+        raise typer.BadParameter(exc.reason, param_hint=exc.field or "--solver") from None
     try:
         roms = ensure_roms(store, wing_id, w, basis_id, basis, [mach], ident=ident, processes=1)
     except TrainingError as exc:
@@ -100,6 +118,10 @@ def train_command(
     if is_frequency_solver(rom.solver):
         report.update(kind="rfa", n_lags=rom.n_lags, fit_error_max=rom.max_fit_error, fit_error=rom.fit_error.tolist(),
                       k_max=float(rom.k_values[-1]), solver_seconds=round(float(rom.solver_seconds), 3))
+    if getattr(rom, "mean_flow", None):
+        report.update(mean_flow_converged=rom.mean_flow.get("steady_converged"),
+                      mean_flow_steps=rom.mean_flow.get("steady_steps"), linearity_error=rom.linearity_error,
+                      solver_seconds=round(float(rom.solver_seconds), 3))
     if plot is not None:
         report["plots"] = _write_plots(plot, rom)
     if as_json:
@@ -125,4 +147,9 @@ def _write_plots(directory: Path, rom: Any) -> list[str]:
     paths = [directory / f"training_signals_M{rom.mach:g}.png", directory / f"training_validation_M{rom.mach:g}.png"]
     save(plot_signals(rom), str(paths[0]))
     save(plot_validation(rom), str(paths[1]))
+    if getattr(rom, "mean_flow", None):
+        from romams.plots.transonic import plot_mean_flow_cp
+
+        paths.append(directory / f"mean_flow_cp_M{rom.mach:g}.png")
+        save(plot_mean_flow_cp(rom.mean_flow), str(paths[-1]))
     return [str(p) for p in paths]

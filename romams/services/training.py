@@ -3,8 +3,9 @@
 Two kinds of solver stand behind the names:
 - frequency-domain ("dlm", the default): generalized aerodynamic forces on a reduced-frequency table, fitted by
   a rational function approximation (``romams_core.training_rfa.train_rfa_rom``), a continuous ROM;
-- time-domain ("uvlm"; "tsd" once installed): a multisine march identified by ARX
-  (``romams_core.training.train_rom``), a discrete ROM.
+- time-domain ("uvlm", and the transonic "tsd"): a multisine march identified by ARX
+  (``romams_core.training.train_rom``; ``romams_core.training_tsd.train_tsd_rom`` for the TSD, about its steady
+  mean flow), a discrete ROM.
 
 A ROM's identity (besides wing, basis and Mach) is ``{"solver", "na", "nb", "options"}``; the ARX orders are 0
 for a frequency-domain solver, whatever was asked, so that equal requests find the same ROM.
@@ -52,19 +53,34 @@ def make_solver(name: str) -> Any:
         return UvlmSolver()
     if name == "tsd":
         try:
-            from romams_core.aero.tsd import TsdSolver  # type: ignore[import-not-found]
+            from romams_core.aero.tsd import TsdSolver
         except ImportError as exc:
             raise ValueError("solver: the transonic small-disturbance solver is not available") from exc
         return TsdSolver()
     raise ValueError(f"solver: unknown solver {name!r} (available: {', '.join(s for s in SOLVERS if available(s))})")
 
 
+def section_options(wing: Any) -> dict[str, Any]:
+    """The wing's aerodynamic section for the TSD: its plate's airfoil thickness form, or a flat plate."""
+    s = getattr(wing, "baseline", None) or getattr(wing, "structure", None)
+    form = getattr(s, "thickness_form", "constant")
+    if form in (None, "constant"):
+        return {"thickness_form": None, "thickness_to_chord": 0.0}
+    return {"thickness_form": str(form), "thickness_to_chord": float(s.thickness_to_chord)}
+
+
 def rom_identity(solver: str = DEFAULT_SOLVER, na: int = 8, nb: int = 8,
-                 options: Mapping[str, Any] | None = None) -> dict:
-    """Identity of a trained ROM besides (wing, basis, Mach): the same dict the HTTP API stores."""
+                 options: Mapping[str, Any] | None = None, wing: Any = None) -> dict:
+    """Identity of a trained ROM besides (wing, basis, Mach): the same dict the HTTP API stores.
+
+    For the TSD the wing's section (thickness form and t/c, ``section_options``) is part of the identity unless
+    the options name it."""
     if is_frequency_solver(solver):
         na = nb = 0
-    return {"solver": str(solver), "na": int(na), "nb": int(nb), "options": dict(options or {})}
+    opts = dict(options or {})
+    if solver == "tsd" and wing is not None:
+        opts = {**section_options(wing), **opts}
+    return {"solver": str(solver), "na": int(na), "nb": int(nb), "options": dict(sorted(opts.items()))}
 
 
 def train_function(solver: str) -> Callable[..., Any]:
@@ -73,6 +89,10 @@ def train_function(solver: str) -> Callable[..., Any]:
         from romams_core.training_rfa import train_rfa_rom
 
         return train_rfa_rom
+    if solver == "tsd":
+        from romams_core.training_tsd import train_tsd_rom
+
+        return train_tsd_rom
     from romams_core.training import train_rom
 
     return train_rom
@@ -85,18 +105,22 @@ def allowed_options(solver: str) -> set[str]:
     return names - RESERVED_OPTIONS
 
 
-def check_options(solver: str, options: Mapping[str, Any]) -> None:
+def check_options(solver: str, options: Mapping[str, Any], n_shapes: int | None = None) -> None:
     """Validate the values of training settings before a job is queued (InvalidInput naming
-    ``options.<name>``), with the core's own check (``romams_core.training_rfa.check_rfa_settings`` for the dlm;
-    the time-domain trainer checks its settings as it starts)."""
-    if not is_frequency_solver(solver):
+    ``options.<name>``), with the core's own check (``check_rfa_settings`` for the dlm, ``check_tsd_settings``
+    for the tsd, which also refuses a grid too coarse for ``n_shapes``; the UVLM trainer checks as it starts)."""
+    if solver not in ("dlm", "tsd"):
         return
     from romams.services.errors import InvalidInput
     from romams_core.errors import InputError
     from romams_core.training_rfa import check_rfa_settings
+    from romams_core.training_tsd import check_tsd_settings
 
     try:
-        check_rfa_settings(**options)  # names already checked against allowed_options
+        if solver == "tsd":
+            check_tsd_settings(n_shapes, **options)
+        else:
+            check_rfa_settings(**options)  # names already checked against allowed_options
     except InputError as exc:
         raise InvalidInput(f"options.{exc.field}", exc.reason) from None
 
@@ -109,8 +133,8 @@ def train(mesh: Any, shapes: Any, mach: float, ident: Mapping[str, Any],
     options = dict(ident.get("options") or {})
     if is_frequency_solver(solver):
         return fn(mesh, shapes, float(mach), make_solver(solver), progress=progress, **options)
-    rom = fn(mesh, shapes, float(mach), make_solver(solver), na=int(ident["na"]), nb=int(ident["nb"]),
-             progress=progress, **options)
+    rom = fn(mesh, shapes, float(mach), None if solver == "tsd" else make_solver(solver), na=int(ident["na"]),
+             nb=int(ident["nb"]), progress=progress, **options)
     if solver == "uvlm":  # flag shapes whose damping the lattice cannot resolve (the DLM as the independent check)
         from romams_core.aero.crosscheck import CHECK_K, uvlm_damping_warnings
 

@@ -119,6 +119,19 @@ def test_training_errors_once_a_basis_exists(client, tmp_path):
     problem(client.post(roms, json={"machs": [0.8, 0.8]}), 422, "machs", "duplicates")
     problem(client.post(f"/api/v1/wings/{other}/roms", json={"mach": 0.8, "basis_id": bid}), 404, "basis_id")
     problem(client.post(f"/api/v1/wings/{wid}/flutter", json={"design": [0.3] * 7}), 409, "machs", "no ROM")
+    # the transonic solver: subsonic free stream only, thin sections, a grid fine enough for the basis
+    tsd = {"solver": "tsd"}
+    problem(client.post(roms, json={"mach": 1.0, **tsd}), 422, "mach", "subsonic")
+    problem(client.post(roms, json={"machs": [0.9, 1.05], **tsd}), 422, "machs", "subsonic")
+    problem(client.post(roms, json={"mach": 0.0, **tsd}), 422, "mach", "Mach > 0")
+    problem(client.post(roms, json={"mach": 0.9, "options": {"thickness_to_chord": 0.2,
+                                                              "thickness_form": "naca4"}, **tsd}),
+            422, "options.thickness_to_chord", "thin-wing")
+    problem(client.post(roms, json={"mach": 0.9, "options": {"grid_scale": 0.25}, **tsd}), 422,
+            "options.grid_scale", "too coarse for")
+    problem(client.post(roms, json={"mach": 0.9, "options": {"tsd_dt": 0.5}, **tsd}), 422, "options.tsd_dt")
+    problem(client.post(roms, json={"mach": 0.9, "options": {"coefficients": "x"}, **tsd}), 422,
+            "options.coefficients")
     assert _counts(client) == before
 
 

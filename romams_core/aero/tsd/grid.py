@@ -55,7 +55,8 @@ class GridSpec:
         """The same grid with every cell count multiplied and the first heights divided by ``factor``."""
         def n(v: int) -> int:
             return max(2, int(round(v * factor)))
-        return GridSpec(n_chord=n(self.n_chord), cluster=self.cluster, n_upstream=n(self.n_upstream), n_downstream=n(self.n_downstream),
+        return GridSpec(n_chord=n(self.n_chord), cluster=self.cluster, n_upstream=n(self.n_upstream),
+                        n_downstream=n(self.n_downstream),
                         x_upstream=self.x_upstream, x_downstream=self.x_downstream, n_span=n(self.n_span),
                         n_outboard=n(self.n_outboard), y_outboard=self.y_outboard, n_z=n(self.n_z),
                         dz0=self.dz0 / factor, z_max=self.z_max)

@@ -1,0 +1,119 @@
+"""Training of a ROM on the transonic small-disturbance solver: mean flow, one multisine run, ARX.
+
+The TSD run is the expensive step (minutes per Mach), so its defaults differ from the UVLM's: a coarser
+signal step (dt_star 0.1, subdivided inside the solver to its own stable step), records of 8 samples per
+ARX parameter and output, and a peak surface displacement of 0.2 % of c_ref so that shocks move within the
+locally linear regime. The ROM is linear about the steady transonic mean flow, which it keeps (surface Cp).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from romams_core.aero.protocol import ProgressFn
+from romams_core.aero.tsd import TsdSolver
+from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS
+from romams_core.aero.tsd.grid import GridSpec
+from romams_core.aero.tsd.solver import MIN_WING_COLUMNS_PER_SHAPE, check_thickness
+from romams_core.errors import InputError
+from romams_core.mesh import StandardMesh
+from romams_core.training import TrainedRom, train_rom
+from romams_core.validation import check_number
+
+#: linearity of the GAC under halving the excitation amplitude, at most (relative L2)
+LINEARITY_TOL = 0.02
+
+
+def tsd_n_steps(n_inputs: int, na: int, nb: int, dt_star: float) -> int:
+    """Record length (steps) of a TSD training half: 8 samples per ARX parameter per output, >= 100 t*, even."""
+    n = max(8 * n_inputs * (na + nb), int(math.ceil(100.0 / dt_star)))
+    return n + (n % 2)
+
+
+def tsd_grid_spec(grid_scale: float = 1.0) -> GridSpec:
+    """The default TSD grid with every cell count multiplied by ``grid_scale``."""
+    check_number("grid_scale", grid_scale, 0.25, strict=False, upper=4.0, upper_strict=False)
+    return GridSpec().scaled(grid_scale) if grid_scale != 1.0 else GridSpec()
+
+
+def check_tsd_settings(n_shapes: int | None = None, *, thickness_form: str | None = None,
+                       thickness_to_chord: float = 0.0, grid_scale: float = 1.0, tsd_dt: float = 0.02,
+                       coefficients: str = "ames", **_: Any) -> None:
+    """Validate TSD training settings (InputError naming the field); ``n_shapes`` also checks the grid size."""
+    check_thickness(thickness_form, thickness_to_chord)
+    spec = tsd_grid_spec(grid_scale)
+    if coefficients not in COEFFICIENT_SETS:
+        raise InputError("coefficients", f"must be one of {COEFFICIENT_SETS}, got {coefficients!r}")
+    if not (isinstance(tsd_dt, int | float) and math.isfinite(tsd_dt) and 0.0 < tsd_dt <= 0.05):
+        raise InputError("tsd_dt", f"must be in (0, 0.05] (t*; larger steps are unstable), got {tsd_dt!r}")
+    if n_shapes is not None:
+        columns = spec.n_chord * spec.n_span
+        if columns < MIN_WING_COLUMNS_PER_SHAPE * n_shapes:
+            raise InputError("grid_scale", f"the grid has {columns} wing node columns, too coarse for {n_shapes} "
+                             f"shapes (need {MIN_WING_COLUMNS_PER_SHAPE} per shape); raise grid_scale")
+
+
+def make_tsd_solver(thickness_form: str | None = None, thickness_to_chord: float = 0.0, grid_scale: float = 1.0,
+                    tsd_dt: float = 0.02, coefficients: str = "ames") -> TsdSolver:
+    """A TSD solver for a wing section (None: flat plate) on the default grid scaled by ``grid_scale``."""
+    check_tsd_settings(thickness_form=thickness_form, thickness_to_chord=thickness_to_chord,
+                       grid_scale=grid_scale, tsd_dt=tsd_dt, coefficients=coefficients)
+    return TsdSolver(thickness_form=thickness_form, thickness_to_chord=thickness_to_chord,
+                     grid=tsd_grid_spec(grid_scale), dt=tsd_dt, coefficients=coefficients)
+
+
+def train_tsd_rom(
+    mesh: StandardMesh,
+    shapes: np.ndarray,
+    mach: float,
+    solver: TsdSolver | None = None,
+    na: int = 8,
+    nb: int = 8,
+    *,
+    thickness_form: str | None = None,
+    thickness_to_chord: float = 0.0,
+    grid_scale: float = 1.0,
+    tsd_dt: float = 0.02,
+    coefficients: str = "ames",
+    dt_star: float = 0.1,
+    n_steps: int | None = None,
+    k_max: float = 1.5,
+    displacement_fraction: float = 0.002,
+    seed: int = 0,
+    nrmse_tol: float = 0.02,
+    reduce_order: int | str | None = "auto",
+    linearity_check: bool = False,
+    progress: ProgressFn | None = None,
+) -> TrainedRom:
+    """ARX ROM of the TSD solver for shapes [N, m] (m) at ``mach`` about the steady mean flow of the section.
+
+    ``linearity_check``: run the training signal again at half amplitude and store the relative deviation from
+    linear scaling (``linearity_error``; a warning above 2 %). Costs one more unsteady run.
+    """
+    shapes = np.asarray(shapes, dtype=float)
+    m = shapes.shape[1] if shapes.ndim == 2 else 1
+    check_tsd_settings(m, thickness_form=thickness_form, thickness_to_chord=thickness_to_chord,
+                       grid_scale=grid_scale, tsd_dt=tsd_dt, coefficients=coefficients)
+    solver = solver or make_tsd_solver(thickness_form, thickness_to_chord, grid_scale, tsd_dt, coefficients)
+    if n_steps is None:
+        n_steps = tsd_n_steps(m, na, nb, dt_star)
+    rom = train_rom(mesh, shapes, mach, solver, na=na, nb=nb, k_max=k_max, n_steps=n_steps, dt_star=dt_star,
+                    seed=seed, nrmse_tol=nrmse_tol, reduce_order=reduce_order, progress=progress,
+                    displacement_fraction=displacement_fraction)
+    rom.solver = "tsd"
+    if solver.last_mean_flow is not None:
+        rom.mean_flow = solver.last_mean_flow.to_dict()
+        if not solver.last_mean_flow.steady.converged:
+            rom.warnings.append(f"TSD mean flow not converged to dphi/dt < {solver.steady_tol:g} in "
+                                f"{solver.steady_steps} steps")
+    if linearity_check:
+        half = solver.simulate(mesh, shapes, 0.5 * rom.signals_train, mach, dt_star)
+        full = rom.gac_train
+        rom.linearity_error = float(np.linalg.norm(2.0 * half - full) / np.linalg.norm(full))
+        if rom.linearity_error > LINEARITY_TOL:
+            rom.warnings.append(f"GAC scale nonlinearly with amplitude: {100 * rom.linearity_error:.1f} % "
+                                f"(> {100 * LINEARITY_TOL:.0f} %); reduce displacement_fraction")
+    return rom
