@@ -68,16 +68,23 @@ def _bases_html(svc: Service, wid: int) -> str:
 def _roms_html(svc: Service, wid: int) -> str:
     """ROM table of a wing: Mach, solver, orders, validation error."""
     rows = []
+    cp_plots = []
     for r in svc.store.roms.of_wing(wid):
         nrmse = r["summary"].get("validation_nrmse")
         worst = max(nrmse) if isinstance(nrmse, list) and nrmse else nrmse
         rows.append(f'<tr><td>{r["id"]}</td><td>{_num(r["mach"], ".3f")}</td><td>{e(r["solver"])}</td>'
                     f'<td>{e(r["params"].get("na"))}/{e(r["params"].get("nb"))}</td><td>{e(r["basis_id"])}</td>'
                     f'<td>{_num(worst, ".3%") if worst is not None else "&mdash;"}</td></tr>')
+        if "mean_flow_converged" in r["summary"]:  # a TSD ROM: its transonic mean flow
+            cp_plots.append(f'<figure><img class="meanflow" alt="TSD mean-flow Cp, ROM {r["id"]}" loading="lazy" '
+                            f'src="/api/v1/roms/{r["id"]}/mean-flow.png"><figcaption>ROM {r["id"]}: mean-flow Cp, '
+                            f'M {_num(r["mach"], ".3f")}</figcaption></figure>')
     if not rows:
         return "<p>No ROM trained yet.</p>"
     return ('<table><tr><th>ROM</th><th>Mach</th><th>solver</th><th>na/nb</th><th>basis</th>'
-            f'<th>validation NRMSE (worst)</th></tr>{"".join(rows)}</table>')
+            f'<th>validation NRMSE (worst)</th></tr>{"".join(rows)}</table>'
+            + (f'<details open><summary>Transonic mean flows (surface Cp)</summary>{"".join(cp_plots)}</details>'
+               if cp_plots else ""))
 
 
 def _evaluations_html(svc: Service) -> str:

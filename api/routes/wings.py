@@ -215,6 +215,34 @@ def _basis_wing(svc: Service, basis_id: int) -> Any:
     return wing_or_404(svc, str(wid))[1]
 
 
+def _mean_flow_or_404(svc: Service, rom_id: int) -> dict[str, Any]:
+    """The stored TSD mean flow of a ROM, or a 404 problem (no such ROM, or a ROM of a linear solver)."""
+    try:
+        rom = svc.store.roms.load(rom_id)
+    except KeyError as exc:
+        raise Problem(404, f"rom_id: no ROM {rom_id}", "rom_id") from exc
+    mean_flow = getattr(rom, "mean_flow", None)
+    if not mean_flow:
+        raise Problem(404, f"rom_id: ROM {rom_id} ({rom.solver}) has no mean flow; only TSD ROMs do", "rom_id")
+    return dict(mean_flow)
+
+
+@router.get("/roms/{rom_id}/mean-flow")
+def rom_mean_flow(rom_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
+    """Steady mean flow of a TSD ROM: linear surface Cp (upper/lower) on the wing nodes (x/c by span fraction),
+    the sonic Cp*, and the pseudo-time convergence (steps, converged, residual history)."""
+    return _mean_flow_or_404(svc, rom_id)
+
+
+@router.get("/roms/{rom_id}/mean-flow.{fmt}")
+def rom_mean_flow_plot(rom_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
+    """Upper/lower surface Cp of a TSD ROM's mean flow at four span stations, sonic Cp marked (PNG or SVG)."""
+    from api.routes.flutter import figure_response
+    from romams.plots.transonic import plot_mean_flow_cp
+
+    return figure_response(plot_mean_flow_cp(_mean_flow_or_404(svc, rom_id)), fmt)
+
+
 @router.get("/bases/{basis_id}/shapes.{fmt}")
 def basis_shapes_plot(basis_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
     """Plot of the basis shapes on the planform (PNG or SVG)."""

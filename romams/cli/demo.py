@@ -17,6 +17,7 @@ from romams.pipeline import PAPER_MACHS, ensure_basis, ensure_roms, resolve_wing
 from romams.services.evaluation import Models, evaluate, pms_summary, result_row
 from romams.services.flight import DEFAULT_CONDITION
 from romams.services.training import DEFAULT_SOLVER, SOLVERS, available, is_frequency_solver, quality_line
+from romams_core.wing import template
 
 #: Two contrasting designs of the cropped delta wing (like the paper's var1 and var2): var1 has a beam far
 #: aft, a heavy outboard leading-edge mass and a thin plate (its flutter boundary drops below the
@@ -29,6 +30,8 @@ DEMO_DESIGNS = {
 
 #: Number of structures analysed in the paper's optimization (for the timing extrapolation).
 PAPER_STRUCTURES = 4530
+#: TSD settings of ``romams demo --quick --solver tsd`` (CI): half-resolution grid, 102 t* records, ARX orders 6
+TSD_QUICK_OPTIONS = {"grid_scale": 0.5, "n_steps": 1024, "nrmse_tol": 0.08}
 
 
 class _Console:
@@ -67,12 +70,19 @@ def _envelope_json(env: Any) -> list[dict[str, Any]]:
                                       strict=True)]
 
 
-def _plots(out: Path, baseline_eval: Any, designs: dict[str, Any], basis: Any, mesh: Any) -> list[str]:
-    """Envelope, V-g / V-omega and basis figures; returns paths."""
+def _plots(out: Path, baseline_eval: Any, designs: dict[str, Any], basis: Any, mesh: Any,
+           roms: dict[float, Any]) -> list[str]:
+    """Envelope, V-g / V-omega, basis and (TSD) mean-flow Cp figures; returns paths."""
     from romams.plots import basis as bplots
     from romams.plots import flutter as fplots
+    from romams.plots.transonic import plot_mean_flow_cp
 
     paths: list[str] = []
+    for m, (_, rom) in roms.items():
+        if getattr(rom, "mean_flow", None):
+            p = out / f"mean_flow_cp_M{m:.2f}.png"
+            bplots.save(plot_mean_flow_cp(rom.mean_flow), str(p))
+            paths.append(str(p))
     fig = bplots.plot_basis_shapes(mesh, basis.shapes, basis.singular_values)
     bplots.save(fig, str(out / "basis_shapes.png"))
     paths.append(str(out / "basis_shapes.png"))
@@ -93,8 +103,8 @@ def demo_command(
     quick: bool = typer.Option(False, "--quick", help="coarser settings (for CI): fewer samples, shorter signals"),
     out: Path = typer.Option(Path("demo-out"), "--out", help="output directory for summary.json and plots"),
     processes: int = typer.Option(0, "--processes", min=0, help="parallel training processes (0: CPU count)"),
-    solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver of the ROMs: dlm (default) "
-                               "or uvlm"),
+    solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver of the ROMs: dlm (default), "
+                               "uvlm or tsd (transonic; with --quick: M 0.87 only, on a half-resolution grid)"),
 ) -> None:
     """Run the ROM-AMS pipeline on the cropped delta wing and write DIR/summary.json plus plots."""
     from romams.persistence import open_store
@@ -108,9 +118,13 @@ def demo_command(
     samples = 12 if quick else 25
     if solver not in SOLVERS or not available(solver):
         raise typer.BadParameter(f"unknown or unavailable solver {solver!r}", param_hint="--solver")
-    ident = rom_identity(solver, 8, 8)
     condition = DEFAULT_CONDITION  # the service's default: constant speed V = M a(10 km), q swept (the paper's)
     machs = list(PAPER_MACHS)
+    if solver == "tsd" and quick:  # minutes per TSD training: one transonic Mach, a coarse grid, short records
+        ident = rom_identity(solver, 6, 6, TSD_QUICK_OPTIONS, wing=template("cropped-delta"))
+        machs = [0.87]
+    else:
+        ident = rom_identity(solver, 8, 8, wing=template("cropped-delta"))
     timings: dict[str, Any] = {}
     store = open_store()
 
@@ -139,6 +153,10 @@ def demo_command(
     models = Models(wing_id, wing, mesh, basis_id, basis, roms)
     for m, (rid, r) in roms.items():
         log(f"M = {m:.2f}: rom {rid}, {quality_line(r)}")
+        if getattr(r, "mean_flow", None):
+            mf = r.mean_flow
+            log(f"M = {m:.2f}: TSD mean flow {'converged' if mf['steady_converged'] else 'NOT converged'} in "
+                f"{mf['steady_steps']} steps, min Cp {np.nanmin(mf['cp_upper']):.3f} (sonic {mf['cp_star']:.3f})")
 
     baseline_eval = evaluate(models, base, condition)
     log("benchmark envelope (baseline): " + ", ".join(
@@ -219,12 +237,14 @@ def demo_command(
                   "mac_table": None if mac_table is None else np.round(mac_table, 6).tolist()},
         "roms": [{"mach": m, "rom_id": rid, "solver": r.solver,
                   "validation_nrmse": [float(x) for x in r.validation_nrmse], "states": int(r.ss.A.shape[0]),
-                  "train_seconds": float(r.train_seconds)}
+                  "train_seconds": float(r.train_seconds),
+                  **({"mean_flow_converged": r.mean_flow["steady_converged"],
+                      "mean_flow_steps": r.mean_flow["steady_steps"]} if getattr(r, "mean_flow", None) else {})}
                  for m, (rid, r) in roms.items()],
         "designs": design_rows,
         "timings": timings,
     }
-    summary["plots"] = _plots(out, baseline_eval, design_evals, basis, mesh)
+    summary["plots"] = _plots(out, baseline_eval, design_evals, basis, mesh, roms)
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     log(f"wrote {out / 'summary.json'} and {len(summary['plots'])} plots in {time.perf_counter() - log.t0:.1f} s")
 

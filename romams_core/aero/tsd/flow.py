@@ -10,6 +10,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from romams_core.aero.tsd import kernels
@@ -21,6 +22,31 @@ TIME_SCHEMES = {0: ((1.0, -1.0, 0.0, 0.0), (0.0, 0.0, 0.0)), 1: ((1.0, -2.0, 1.0
                 2: ((2.0, -5.0, 4.0, -1.0), (1.5, -2.0, 0.5))}
 #: cap of the upstream non-reflecting coefficient M / (1 - M), singular at M = 1
 UPSTREAM_KAPPA_CAP = 20.0
+
+
+def sponge_layer(grid: TsdGrid, rate: float, fraction: float = 0.5) -> np.ndarray:
+    """[ni, nj, nk] damping rate of an absorbing layer in the outer ``fraction`` of each far-field extent.
+
+    The first-order non-reflecting conditions reflect oblique waves; measured on the cropped delta (M 0.87,
+    8 basis shapes), the ARX validation error fell from 3-5 % to 1.2-2.5 % when the boundaries were moved twice
+    as far. The layer damps outgoing waves instead (rate * depth^2, depth 0..1 into the layer); it acts on
+    phi_t only, so steady solutions are unchanged.
+    """
+    def depth(x: np.ndarray, inner: float, outer: float) -> np.ndarray:
+        return np.clip((x - inner) / (outer - inner), 0.0, 1.0)
+
+    xf, zf = grid.xf, grid.zf
+    up = depth(-grid.xc, -xf[0] * (1 - fraction), -xf[0])
+    down = depth(grid.xc, 1.0 + (xf[-1] - 1.0) * (1 - fraction), xf[-1])
+    rx = np.maximum(up, down)
+    rz = np.maximum(depth(grid.zc, zf[-1] * (1 - fraction), zf[-1]), depth(-grid.zc, -zf[0] * (1 - fraction), -zf[0]))
+    if grid.lateral_far:
+        b, ymax = grid.semispan, grid.yf[-1]
+        ry = depth(grid.yc, b + (ymax - b) * (1 - fraction), ymax)
+    else:
+        ry = np.zeros(grid.yc.size)
+    r = np.maximum(np.maximum(rx[:, None, None], ry[None, :, None]), rz[None, None, :])
+    return rate * r ** 2
 
 
 @dataclass
@@ -46,6 +72,8 @@ class TsdFlow:
     w_lo: np.ndarray = field(init=False)  # [ni, nj] phi_z at z = 0- on the planform
     gamma: np.ndarray = field(init=False)  # [ni, nj] potential jump on the wake sheet
     t: float = 0.0
+    threads: int = 1  # numba threads of the kernels (line solves run in parallel over lines)
+    sponge_rate: float = 1.0  # damping rate (1/t*) at the outer edge of the absorbing layer; 0: none
     _gamma_hist: list[np.ndarray] = field(init=False, default_factory=list)
     _t_hist: list[float] = field(init=False, default_factory=list)
 
@@ -74,6 +102,7 @@ class TsdFlow:
         self._far_w = np.zeros((2, ni, nj))
         #: 2-D only: the outer faces see the compressible vortex of the current circulation (steady far field)
         self.vortex_far_field = not g.lateral_far and nj == 1
+        self.sponge = sponge_layer(g, self.sponge_rate) if self.sponge_rate > 0 else np.zeros(g.shape)
 
     # ----- wake -------------------------------------------------------------------------------------------------
     def gamma_te(self, phi: np.ndarray | None = None) -> np.ndarray:
@@ -134,14 +163,15 @@ class TsdFlow:
     def newton_iteration(self, tc: np.ndarray, steady: bool) -> tuple[float, float, float]:
         """One residual evaluation and factored solve at the new time level; returns (max|N|, rms N, max|dphi|)."""
         g = self.grid
+        numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
         self._update_gamma(steady)
         p1, p2, p3 = self.levels
         nmax, nrms = kernels.residual(self.phi, p1, p2, p3, tc, self._co, g.xc, g.xf, g.yc, g.yf, g.zc, g.zf,
                                       self._cj, self._cyf, self._xiy_xf, self._xiy_yf, self._wing, self._wake,
                                       self.w_up, self.w_lo, self.gamma, g.k0, g.lateral_far, self._far_u,
-                                      self._far_w, self._rhs)
+                                      self._far_w, self.sponge, self._rhs)
         w = self._rhs
-        kernels.solve_xi(self.phi, w, tc, self._co, g.xc, g.xf, self._cj, self._xiy_xf)
+        kernels.solve_xi(self.phi, w, tc, self._co, g.xc, g.xf, self._cj, self._xiy_xf, self.sponge)
         kernels.solve_eta(self.phi, w, tc, self._co, g.xc, g.yc, g.yf, self._cj, self._cyf, g.lateral_far)
         kernels.solve_zeta(w, tc, self._co, g.zc, g.zf, self._wing, g.k0)
         self.phi += w

@@ -29,12 +29,12 @@ def _g(u: float, e: float, f: float) -> float:
     return e * u + f * u * u
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, parallel=True)
 def _central_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     """d(phi)/d(xi) at the nodes: central inside, one-sided at the ends."""
     ni, nj, nk = phi.shape
     out = np.empty_like(phi)
-    for i in range(ni):
+    for i in nb.prange(ni):
         lo = max(i - 1, 0)
         hi = min(i + 1, ni - 1)
         inv = 1.0 / (xc[hi] - xc[lo])
@@ -44,12 +44,12 @@ def _central_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, parallel=True)
 def _upwind_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     """d(phi)/d(xi) at the nodes by the backward (upwind) difference; zero at the first node."""
     ni, nj, nk = phi.shape
     out = np.zeros_like(phi)
-    for i in range(1, ni):
+    for i in nb.prange(1, ni):
         inv = 1.0 / (xc[i] - xc[i - 1])
         for j in range(nj):
             for k in range(nk):
@@ -81,13 +81,14 @@ def _central_eta(phi: np.ndarray, yc: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, parallel=True)
 def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, xiy_yf,
-             wing, wake, wup, wlo, gam, k0, lateral_far, far_u, far_w, rhs):  # pragma: no cover - compiled
+             wing, wake, wup, wlo, gam, k0, lateral_far, far_u, far_w, sponge, rhs):  # pragma: no cover - compiled
     """Fill ``rhs`` (the factored-step right-hand side s N) and return (max |N|, rms N) over all nodes.
 
     ``far_u`` [2, nj, nk] and ``far_w`` [2, ni, nj]: prescribed far-field phi_x on the upstream/downstream faces
     and phi_z on the bottom/top faces, added to the non-reflecting conditions (a 2-D vortex far field; zero in 3-D).
+    ``sponge`` [ni, nj, nk]: damping rate sigma (1/t*) of the absorbing layer, N -= A c sigma phi_t (zero inside).
     """
     ni, nj, nk = phi.shape
     a0, a1, a2, a3, b0, b1, b2, dt = tc[0], tc[1], tc[2], tc[3], tc[4], tc[5], tc[6], tc[7]
@@ -100,13 +101,15 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
     ux = _upwind_xi(phi, xc)
     ux1 = _upwind_xi(p1, xc)
     ux2 = _upwind_xi(p2, xc)
-    nmax = 0.0
-    nsum = 0.0
-    gp = np.empty(ni + 1)
-    gm = np.zeros(ni + 1)
-    xx = np.zeros(ni + 1)
-    f3 = np.empty(nk + 1)
-    for j in range(nj):
+    jmax = np.zeros(nj)
+    jsum = np.zeros(nj)
+    for j in nb.prange(nj):
+        gp = np.empty(ni + 1)
+        gm = np.zeros(ni + 1)
+        xx = np.zeros(ni + 1)
+        f3 = np.empty(nk + 1)
+        nmax = 0.0
+        nsum = 0.0
         c = cj[j]
         dyj = yf[j + 1] - yf[j]
         for k in range(nk):
@@ -130,7 +133,8 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
                 pxt = (b0 * ux[i, j, k] + b1 * ux1[i, j, k] + b2 * ux2[i, j, k]) / dt
                 gmm = gm[i - 1] if i >= 1 else 0.0
                 dxi = (gp[i + 1] - gp[i] + gm[i] - gmm + xx[i + 1] - xx[i]) / (xf[i + 1] - xf[i])
-                rhs[i, j, k] = -A * c * ptt - B * pxt + dxi
+                pt = (b0 * phi[i, j, k] + b1 * p1[i, j, k] + b2 * p2[i, j, k]) / dt
+                rhs[i, j, k] = -A * c * (ptt + sponge[i, j, k] * pt) - B * pxt + dxi
         # spanwise fluxes (3-D): root face symmetric, outer face from the lateral far-field condition
         if three_d:
             for i in range(ni):
@@ -175,7 +179,9 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
                     nmax = aval
                 nsum += n * n
                 rhs[i, j, k] = n * dt * dt / (A * c * a0)
-    return nmax, np.sqrt(nsum / (ni * nj * nk))
+        jmax[j] = nmax
+        jsum[j] = nsum
+    return jmax.max(), np.sqrt(jsum.sum() / (ni * nj * nk))
 
 
 @nb.njit(cache=True, inline="always")
@@ -195,19 +201,19 @@ def _band_solve(a, b, d, e, r, n):  # pragma: no cover - compiled
         r[i] = (r[i] - e[i] * r[i + 1]) / d[i]
 
 
-@nb.njit(cache=True)
-def solve_xi(phi, w, tc, co, xc, xf, cj, xiy_xf):  # pragma: no cover - compiled
+@nb.njit(cache=True, parallel=True)
+def solve_xi(phi, w, tc, co, xc, xf, cj, xiy_xf, sponge):  # pragma: no cover - compiled
     """Apply the streamwise factor's inverse to w in place (EO-switched Jacobian, far-field faces)."""
     ni, nj, nk = phi.shape
     a0, b0, dt, ku, kd = tc[0], tc[4], tc[7], tc[8], tc[9]
     A, B, E, F, H, us = co[0], co[1], co[2], co[3], co[5], co[6]
     three_d = nj > 1
-    la = np.zeros(ni)
-    lb = np.zeros(ni)
-    ld = np.zeros(ni)
-    le = np.zeros(ni)
-    r = np.zeros(ni)
-    for j in range(nj):
+    for j in nb.prange(nj):
+        la = np.zeros(ni)
+        lb = np.zeros(ni)
+        ld = np.zeros(ni)
+        le = np.zeros(ni)
+        r = np.zeros(ni)
         c = cj[j]
         s = dt * dt / (A * c * a0)
         sb = s * B * b0 / dt
@@ -216,6 +222,8 @@ def solve_xi(phi, w, tc, co, xc, xf, cj, xiy_xf):  # pragma: no cover - compiled
             lb[:] = 0.0
             ld[:] = 1.0
             le[:] = 0.0
+            for i in range(ni):
+                ld[i] += sponge[i, j, k] * b0 * dt / a0
             for i in range(1, ni):
                 inv1 = 1.0 / (xc[i] - xc[i - 1])
                 ld[i] += sb * inv1
@@ -249,7 +257,7 @@ def solve_xi(phi, w, tc, co, xc, xf, cj, xiy_xf):  # pragma: no cover - compiled
                 w[i, j, k] = r[i]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, parallel=True)
 def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no cover - compiled
     """Apply the spanwise factor's inverse to w in place (root symmetry face, lateral far-field face)."""
     ni, nj, nk = phi.shape
@@ -257,12 +265,12 @@ def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no c
         return
     a0, b0, dt, ky = tc[0], tc[4], tc[7], tc[11]
     A, H = co[0], co[5]
-    la = np.zeros(nj)
-    lb = np.zeros(nj)
-    ld = np.zeros(nj)
-    le = np.zeros(nj)
-    r = np.zeros(nj)
-    for i in range(ni):
+    for i in nb.prange(ni):
+        la = np.zeros(nj)
+        lb = np.zeros(nj)
+        ld = np.zeros(nj)
+        le = np.zeros(nj)
+        r = np.zeros(nj)
         lo = max(i - 1, 0)
         hi = min(i + 1, ni - 1)
         inv2 = 1.0 / (xc[hi] - xc[lo])
@@ -291,19 +299,19 @@ def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no c
                 w[i, j, k] = r[j]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, parallel=True)
 def solve_zeta(w, tc, co, zc, zf, wing, k0):  # pragma: no cover - compiled
     """Apply the normal factor's inverse to w in place (no coupling across the slit, far-field faces)."""
     ni, nj, nk = w.shape
     a0, b0, dt, kz = tc[0], tc[4], tc[7], tc[10]
     A = co[0]
-    la = np.zeros(nk)
-    lb = np.zeros(nk)
-    ld = np.zeros(nk)
-    le = np.zeros(nk)
-    r = np.zeros(nk)
     s = dt * dt / (A * a0)
-    for j in range(nj):
+    for j in nb.prange(nj):
+        la = np.zeros(nk)
+        lb = np.zeros(nk)
+        ld = np.zeros(nk)
+        le = np.zeros(nk)
+        r = np.zeros(nk)
         for i in range(ni):
             lb[:] = 0.0
             ld[:] = 1.0

@@ -1,0 +1,164 @@
+"""Flutter validation of the transonic small-disturbance (TSD) ROMs; prints JSON (a documented long run).
+
+Cases (reference data in docs/aerodynamics.md section 14):
+- ``agard``: AGARD 445.6 weakened wing, its own 4 modes, NACA 65A004 section, at the experimental points
+  (M 0.499, 0.678, 0.901, 0.960; constant density at the experimental density): flutter speed, frequency and
+  flutter speed index (FSI) of the TSD and the DLM ROMs against the wind tunnel; the transonic dip is the FSI
+  at M 0.960 against M 0.901;
+- ``cropped``: cropped delta bare plate at M 0.87 (ISA 10 km, V = M a): flutter dynamic pressure of the TSD and
+  the DLM against the experiment (2.40 psi);
+- ``study``: time-step and grid studies at one AGARD point (``--study-mach``, default 0.960): the flutter speed
+  with tsd_dt halved and with the grid scaled by 0.75 and 1.25.
+
+``--plot DIR`` writes DIR/agard_flutter_tsd.png (FSI and frequency ratio against Mach, TSD, DLM, experiment).
+One TSD training per point takes minutes (``--processes`` trains Mach numbers in parallel).
+
+    python -m benchmarks.validate_tsd [--cases agard,cropped,study] [--plot docs] [--processes 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from typing import Any
+
+from benchmarks.validate_dlm import AGARD_EXPERIMENT, CROPPED_DELTA
+from romams.pipeline import parallel_map
+from romams.services.training import rom_identity, train
+from romams_core.flutter import flutter_analysis
+from romams_core.mesh import standard_mesh
+from romams_core.structure.modal import modal_analysis
+from romams_core.wing import template
+
+#: AGARD 445.6 reference values of the flutter speed index (root semichord, first torsion frequency)
+B_R = 0.27935
+OMEGA_ALPHA = 239.3
+PSI = 6894.757
+
+
+def fsi(v: float, rho: float, mass_ratio_ref: tuple[float, float]) -> float:
+    """Flutter speed index V / (b_r omega_alpha sqrt(mu)), mu scaled from the reference (rho_ref, mu_ref)."""
+    rho_ref, mu_ref = mass_ratio_ref
+    mu = mu_ref * rho_ref / rho
+    return v / (B_R * OMEGA_ALPHA * math.sqrt(mu))
+
+
+#: experimental mass ratios (agard445 reference): Mach -> mu
+AGARD_MU = {0.499: 33.465, 0.678: 68.753, 0.901: 143.920, 0.960: 225.820}
+
+
+def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
+    """Train one ROM on the AGARD wing's own modes and find its flutter point at the experimental density."""
+    mach, solver, options = args
+    wing = template("agard-445.6")
+    mesh = standard_mesh(wing.planform)
+    modal = modal_analysis(wing, None, 4, mesh)
+    rho, v_exp, w_exp = AGARD_EXPERIMENT[mach]
+    t0 = time.perf_counter()
+    rom = train(mesh, modal.shapes, mach, rom_identity(solver, options=options, wing=wing))
+    seconds = time.perf_counter() - t0
+    r = flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, sweep="constant-density", rho_ref=rho,
+                         a_ref=v_exp / mach, v_max=2.0 * v_exp)
+    v = r.v_flutter_m_s
+    row: dict[str, Any] = {
+        "case": "agard-445.6", "mach": mach, "solver": solver, "options": options, "rho": rho, "v_f": v,
+        "omega_f": r.omega_flutter_rad_s, "mode": r.flutter_mode, "v_exp": v_exp, "omega_exp": w_exp,
+        "fsi": None if v is None else fsi(v, rho, (rho, AGARD_MU[mach])),
+        "fsi_exp": fsi(v_exp, rho, (rho, AGARD_MU[mach])),
+        "v_error_pct": None if v is None else 100.0 * (v / v_exp - 1.0),
+        "train_seconds": seconds, "warnings": list(rom.warnings),
+    }
+    if getattr(rom, "mean_flow", None):
+        mf = rom.mean_flow
+        row.update(mean_flow_converged=mf["steady_converged"], mean_flow_steps=mf["steady_steps"],
+                   cp_min=float(min(min(r_) for r_ in mf["cp_upper"])), cp_star=mf["cp_star"],
+                   validation_nrmse_max=float(max(rom.validation_nrmse)))
+    return row
+
+
+def _cropped_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
+    """Cropped delta bare plate at ISA 10 km, V = M a: flutter dynamic pressure of one solver's own-mode ROM."""
+    mach, solver, options = args
+    wing = template("cropped-delta")
+    mesh = standard_mesh(wing.planform)
+    modal = modal_analysis(wing, None, 4, mesh)
+    t0 = time.perf_counter()
+    rom = train(mesh, modal.shapes, mach, rom_identity(solver, options=options, wing=wing))
+    seconds = time.perf_counter() - t0
+    r = flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, zeta=wing.modal_damping)  # as validate_dlm
+    q = r.q_flutter_pa
+    return {"case": "cropped-delta", "mach": mach, "solver": solver, "q_f_pa": q, "q_f_psi": None if q is None
+            else q / PSI, "omega_f": r.omega_flutter_rad_s, "mode": r.flutter_mode,
+            "q_exp_pa": CROPPED_DELTA["experiment_q_pa_m087"], "train_seconds": seconds}
+
+
+def main() -> None:
+    """Run the chosen cases and print one JSON object."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", default="agard,cropped", help="comma list of agard, cropped, study")
+    ap.add_argument("--machs", default=",".join(str(m) for m in AGARD_EXPERIMENT), help="AGARD Mach numbers")
+    ap.add_argument("--grid-scale", type=float, default=1.0)
+    ap.add_argument("--study-mach", type=float, default=0.960)
+    ap.add_argument("--processes", type=int, default=1)
+    ap.add_argument("--plot", default=None, help="directory for agard_flutter_tsd.png")
+    a = ap.parse_args()
+    cases = set(a.cases.split(","))
+    base = {} if a.grid_scale == 1.0 else {"grid_scale": a.grid_scale}
+    out: dict[str, Any] = {"grid_scale": a.grid_scale}
+    t0 = time.perf_counter()
+    if "agard" in cases:
+        machs = [float(m) for m in a.machs.split(",")]
+        jobs = [(m, "tsd", base) for m in machs] + [(m, "dlm", {}) for m in machs]
+        out["agard"] = parallel_map(_agard_point, jobs, a.processes)
+        tsd = {r["mach"]: r for r in out["agard"] if r["solver"] == "tsd"}
+        if 0.901 in tsd and 0.960 in tsd and tsd[0.901]["fsi"] and tsd[0.960]["fsi"]:
+            out["transonic_dip_pct"] = 100.0 * (1.0 - tsd[0.960]["fsi"] / tsd[0.901]["fsi"])
+    if "cropped" in cases:
+        out["cropped"] = parallel_map(_cropped_point, [(0.87, "tsd", base), (0.87, "dlm", {})], a.processes)
+    if "study" in cases:
+        m = a.study_mach
+        variants = [base, {**base, "tsd_dt": 0.01}, {"grid_scale": 0.75 * a.grid_scale},
+                    {"grid_scale": 1.25 * a.grid_scale}]
+        rows = parallel_map(_agard_point, [(m, "tsd", v) for v in variants], a.processes)
+        ref = rows[0]["v_f"]
+        for r in rows:
+            r["change_pct"] = None if (ref is None or r["v_f"] is None) else 100.0 * (r["v_f"] / ref - 1.0)
+        out["study"] = rows
+    out["seconds"] = time.perf_counter() - t0
+    if a.plot and "agard" in out:
+        _plot(out["agard"], a.plot)
+    print(json.dumps(out, indent=1))
+
+
+def _plot(rows: list[dict[str, Any]], directory: str) -> None:
+    """FSI and flutter frequency ratio against Mach: TSD, DLM and experiment."""
+    from pathlib import Path
+
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8.0, 3.4), layout="constrained")
+    ax1, ax2 = fig.subplots(1, 2)
+    machs = sorted(AGARD_EXPERIMENT)
+    ax1.plot(machs, [fsi(AGARD_EXPERIMENT[m][1], 1.0, (1.0, AGARD_MU[m])) for m in machs], "ks-",
+             label="experiment (Yates)")
+    ax2.plot(machs, [AGARD_EXPERIMENT[m][2] / OMEGA_ALPHA for m in machs], "ks-", label="experiment")
+    for solver, style in (("tsd", "o-"), ("dlm", "^--")):
+        pts = sorted((r["mach"], r) for r in rows if r["solver"] == solver and r["v_f"] is not None)
+        ax1.plot([m for m, _ in pts], [r["fsi"] for _, r in pts], style, label=solver.upper())
+        ax2.plot([m for m, _ in pts], [r["omega_f"] / OMEGA_ALPHA for _, r in pts], style, label=solver.upper())
+    ax1.set_xlabel("Mach")
+    ax1.set_ylabel("flutter speed index")
+    ax2.set_xlabel("Mach")
+    ax2.set_ylabel("omega_f / omega_alpha")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("AGARD 445.6 weakened: TSD and DLM ROMs against experiment", fontsize=10)
+    Path(directory).mkdir(parents=True, exist_ok=True)
+    fig.savefig(str(Path(directory) / "agard_flutter_tsd.png"), dpi=110)
+
+
+if __name__ == "__main__":
+    main()
