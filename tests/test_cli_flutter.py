@@ -109,6 +109,24 @@ def test_demo_quick_writes_summary_with_contract_keys(data_dir):
     assert (out / "envelope.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
+def test_demo_quick_with_the_transonic_solver(data_dir):
+    """``romams demo --quick --solver tsd``: the whole chain on TSD ROMs (M 0.87, half grid), mean-flow plot."""
+    out = data_dir / "demo-tsd"
+    res = CliRunner().invoke(app, ["demo", "--quick", "--solver", "tsd", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    s = json.loads((out / "summary.json").read_text())
+    assert [r["mach"] for r in s["roms"]] == [0.87]
+    (rom,) = s["roms"]
+    assert rom["solver"] == "tsd" and rom["mean_flow_converged"] is True
+    assert max(rom["validation_nrmse"]) < 0.08
+    for d in s["designs"]:
+        (r,) = d["results"]
+        assert r["solver"] == "tsd" and r["v_flutter_m_s"] is not None
+        assert abs(r["error_pct"]) < 3.0  # ROM-AMS vs ROM-PMS on the same (quick) TSD settings
+    assert (out / "mean_flow_cp_M0.87.png").stat().st_size > 10_000
+
+
 def test_issue_case_m079_is_mode_2_at_210_m_s_not_an_aero_lag_root(data_dir):
     # the reported case (UVLM ARX ROM, whose lag roots the tracker once followed): baseline, M 0.79, constant
     # density at ISA 10 km, the 5-shape MAC-0.98 basis, the default

@@ -10,7 +10,6 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
 from romams_core.aero.tsd import kernels
@@ -72,7 +71,6 @@ class TsdFlow:
     w_lo: np.ndarray = field(init=False)  # [ni, nj] phi_z at z = 0- on the planform
     gamma: np.ndarray = field(init=False)  # [ni, nj] potential jump on the wake sheet
     t: float = 0.0
-    threads: int = 1  # numba threads of the kernels (line solves run in parallel over lines)
     sponge_rate: float = 1.0  # damping rate (1/t*) at the outer edge of the absorbing layer; 0: none
     _gamma_hist: list[np.ndarray] = field(init=False, default_factory=list)
     _t_hist: list[float] = field(init=False, default_factory=list)
@@ -163,7 +161,6 @@ class TsdFlow:
     def newton_iteration(self, tc: np.ndarray, steady: bool) -> tuple[float, float, float]:
         """One residual evaluation and factored solve at the new time level; returns (max|N|, rms N, max|dphi|)."""
         g = self.grid
-        numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
         self._update_gamma(steady)
         p1, p2, p3 = self.levels
         nmax, nrms = kernels.residual(self.phi, p1, p2, p3, tc, self._co, g.xc, g.xf, g.yc, g.yf, g.zc, g.zf,

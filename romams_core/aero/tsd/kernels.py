@@ -29,12 +29,12 @@ def _g(u: float, e: float, f: float) -> float:
     return e * u + f * u * u
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True)
 def _central_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     """d(phi)/d(xi) at the nodes: central inside, one-sided at the ends."""
     ni, nj, nk = phi.shape
     out = np.empty_like(phi)
-    for i in nb.prange(ni):
+    for i in range(ni):
         lo = max(i - 1, 0)
         hi = min(i + 1, ni - 1)
         inv = 1.0 / (xc[hi] - xc[lo])
@@ -44,12 +44,12 @@ def _central_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True)
 def _upwind_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     """d(phi)/d(xi) at the nodes by the backward (upwind) difference; zero at the first node."""
     ni, nj, nk = phi.shape
     out = np.zeros_like(phi)
-    for i in nb.prange(1, ni):
+    for i in range(1, ni):
         inv = 1.0 / (xc[i] - xc[i - 1])
         for j in range(nj):
             for k in range(nk):
@@ -81,7 +81,7 @@ def _central_eta(phi: np.ndarray, yc: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True)
 def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, xiy_yf,
              wing, wake, wup, wlo, gam, k0, lateral_far, far_u, far_w, sponge, rhs):  # pragma: no cover - compiled
     """Fill ``rhs`` (the factored-step right-hand side s N) and return (max |N|, rms N) over all nodes.
@@ -103,7 +103,7 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
     ux2 = _upwind_xi(p2, xc)
     jmax = np.zeros(nj)
     jsum = np.zeros(nj)
-    for j in nb.prange(nj):
+    for j in range(nj):
         gp = np.empty(ni + 1)
         gm = np.zeros(ni + 1)
         xx = np.zeros(ni + 1)
@@ -201,14 +201,14 @@ def _band_solve(a, b, d, e, r, n):  # pragma: no cover - compiled
         r[i] = (r[i] - e[i] * r[i + 1]) / d[i]
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True)
 def solve_xi(phi, w, tc, co, xc, xf, cj, xiy_xf, sponge):  # pragma: no cover - compiled
     """Apply the streamwise factor's inverse to w in place (EO-switched Jacobian, far-field faces)."""
     ni, nj, nk = phi.shape
     a0, b0, dt, ku, kd = tc[0], tc[4], tc[7], tc[8], tc[9]
     A, B, E, F, H, us = co[0], co[1], co[2], co[3], co[5], co[6]
     three_d = nj > 1
-    for j in nb.prange(nj):
+    for j in range(nj):
         la = np.zeros(ni)
         lb = np.zeros(ni)
         ld = np.zeros(ni)
@@ -257,7 +257,7 @@ def solve_xi(phi, w, tc, co, xc, xf, cj, xiy_xf, sponge):  # pragma: no cover - 
                 w[i, j, k] = r[i]
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True)
 def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no cover - compiled
     """Apply the spanwise factor's inverse to w in place (root symmetry face, lateral far-field face)."""
     ni, nj, nk = phi.shape
@@ -265,7 +265,7 @@ def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no c
         return
     a0, b0, dt, ky = tc[0], tc[4], tc[7], tc[11]
     A, H = co[0], co[5]
-    for i in nb.prange(ni):
+    for i in range(ni):
         la = np.zeros(nj)
         lb = np.zeros(nj)
         ld = np.zeros(nj)
@@ -299,14 +299,14 @@ def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no c
                 w[i, j, k] = r[j]
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True)
 def solve_zeta(w, tc, co, zc, zf, wing, k0):  # pragma: no cover - compiled
     """Apply the normal factor's inverse to w in place (no coupling across the slit, far-field faces)."""
     ni, nj, nk = w.shape
     a0, b0, dt, kz = tc[0], tc[4], tc[7], tc[10]
     A = co[0]
     s = dt * dt / (A * a0)
-    for j in nb.prange(nj):
+    for j in range(nj):
         la = np.zeros(nk)
         lb = np.zeros(nk)
         ld = np.zeros(nk)

@@ -92,8 +92,8 @@ class TsdSolver:
 
     ``thickness_form``/``thickness_to_chord``: the wing section (None: flat plate); ``dt``: the largest internal
     time step (t*), the signals' step is subdivided to meet it; ``n_sub``: Newton sub-iterations per step (one
-    is the time-linearized AF; a second changed the linear GAF by < 0.1 %); ``threads``: numba threads (1 in a
-    service worker process, which shares the cores with others; the cores of the machine for a lone run).
+    is the time-linearized AF; a second changed the linear GAF by < 0.1 %). The kernels are serial: numba's
+    parallel loops ran 12x slower with the cores oversubscribed and abort in forked training processes.
     """
 
     thickness_form: str | None = None
@@ -101,7 +101,6 @@ class TsdSolver:
     grid: GridSpec = field(default_factory=GridSpec)
     dt: float = 0.02
     n_sub: int = 1
-    threads: int = 1
     sponge_rate: float = 1.0
     coefficients: str = "ames"
     steady_steps: int = 2500
@@ -169,8 +168,7 @@ class TsdSolver:
         """Converged steady flow about the wing's thickness at ``mach``; keeps its Cp in ``last_mean_flow``."""
         mach = check_mach(mach, upper=1.0)
         grid = self.build_grid(mesh)
-        flow = TsdFlow(grid, tsd_coefficients(mach, self.coefficients), threads=self.threads,
-                       sponge_rate=self.sponge_rate)
+        flow = TsdFlow(grid, tsd_coefficients(mach, self.coefficients), sponge_rate=self.sponge_rate)
         slope = self._thickness_slope(grid)[:, None]
         flow.w_up[...] = np.where(grid.wing, slope, 0.0)
         flow.w_lo[...] = np.where(grid.wing, -slope, 0.0)
