@@ -97,13 +97,25 @@ _NACA65A004_Z = np.array([0, 0.304, 0.368, 0.469, 0.647, 0.875, 1.059, 1.213, 1.
                           1.997, 1.996, 1.954, 1.868, 1.743, 1.586, 1.402, 1.195, 0.967, 0.729, 0.49, 0.25, 0]) / 100.0
 _NACA65A004 = PchipInterpolator(_NACA65A004_X, _NACA65A004_Z / _NACA65A004_Z.max())
 
+# NACA 64A010 half thickness (fraction of chord) at chord fractions: the ordinates tabulated in NACA Report 903
+# (Loftin, "Theoretical and experimental data for a number of NACA 6A-series airfoil sections", 1948); the
+# trailing edge is open (0.021 % of the chord per side). The AGARD CT6 pitching-airfoil section (tsd validation).
+_NACA64A010_X = np.array([0, 0.5, 0.75, 1.25, 2.5, 5, 7.5, 10, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 65, 70, 75, 80,
+                          85, 90, 95, 100]) / 100.0
+_NACA64A010_Z = np.array([0, 0.804, 0.969, 1.225, 1.688, 2.327, 2.805, 3.199, 3.813, 4.272, 4.606, 4.837, 4.968,
+                          4.995, 4.894, 4.684, 4.388, 4.021, 3.597, 3.127, 2.623, 2.103, 1.582, 1.062, 0.541,
+                          0.021]) / 100.0
+_NACA64A010 = PchipInterpolator(_NACA64A010_X, _NACA64A010_Z / _NACA64A010_Z.max())
+
 
 def thickness_form(name: str, xi: np.ndarray) -> np.ndarray:
-    """Airfoil thickness form (maximum 1) named ``name`` ("naca4" or "naca65a004") at chord fractions xi."""
+    """Airfoil thickness form (maximum 1) named ``name`` ("naca4", "naca65a004" or "naca64a010") at chord fractions
+    xi."""
     if name == "naca4":
         return naca4_thickness_form(xi)
-    if name == "naca65a004":
-        return np.asarray(_NACA65A004(np.clip(np.asarray(xi, dtype=float), 0.0, 1.0)), dtype=float)
+    if name in ("naca65a004", "naca64a010"):
+        table = _NACA65A004 if name == "naca65a004" else _NACA64A010
+        return np.asarray(table(np.clip(np.asarray(xi, dtype=float), 0.0, 1.0)), dtype=float)
     raise InputError("structure.thickness_form", f"no airfoil form {name!r}")
 
 
