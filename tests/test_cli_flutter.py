@@ -119,7 +119,7 @@ def test_demo_quick_with_the_transonic_solver(data_dir):
     assert [r["mach"] for r in s["roms"]] == [0.87]
     (rom,) = s["roms"]
     assert rom["solver"] == "tsd" and rom["mean_flow_converged"] is True
-    assert max(rom["validation_nrmse"]) < 0.08
+    assert max(rom["validation_nrmse"]) < 0.12
     for d in s["designs"]:
         (r,) = d["results"]
         assert r["solver"] == "tsd" and r["v_flutter_m_s"] is not None

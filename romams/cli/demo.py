@@ -31,7 +31,7 @@ DEMO_DESIGNS = {
 #: Number of structures analysed in the paper's optimization (for the timing extrapolation).
 PAPER_STRUCTURES = 4530
 #: TSD settings of ``romams demo --quick --solver tsd`` (CI): half-resolution grid, 102 t* records, ARX orders 6
-TSD_QUICK_OPTIONS = {"grid_scale": 0.5, "n_steps": 1024, "nrmse_tol": 0.08}
+TSD_QUICK_OPTIONS = {"grid_scale": 0.5, "n_steps": 1024, "nrmse_tol": 0.12}
 
 
 class _Console:
