@@ -157,10 +157,13 @@ def start_training(wing: str, body: RomRequest, response: Response, svc: Service
         raise invalid("mach" if body.mach is not None else "machs",
                       f"the {what} is subsonic only (Mach < 1), got {bad[0]}")
     if body.solver == "tsd":
-        bad = [m for m in ([body.mach] if body.mach is not None else body.machs or []) if m <= 0.0]
+        from romams_core.aero.tsd.solver import MIN_MACH
+
+        bad = [m for m in ([body.mach] if body.mach is not None else body.machs or []) if m < MIN_MACH]
         if bad:
             raise invalid("mach" if body.mach is not None else "machs",
-                          f"the TSD solver needs Mach > 0 (it is a compressible formulation), got {bad[0]}")
+                          f"the TSD solver needs Mach >= {MIN_MACH} (its factored scheme is unstable below; use "
+                          f"the dlm there), got {bad[0]}")
     if not available(body.solver):
         raise invalid("solver", f"the solver {body.solver!r} is not available on this server")
     n_shapes = _basis_or_404(svc, basis_id).n_basis if body.solver == "tsd" else None

@@ -123,7 +123,8 @@ def test_training_errors_once_a_basis_exists(client, tmp_path):
     tsd = {"solver": "tsd"}
     problem(client.post(roms, json={"mach": 1.0, **tsd}), 422, "mach", "subsonic")
     problem(client.post(roms, json={"machs": [0.9, 1.05], **tsd}), 422, "machs", "subsonic")
-    problem(client.post(roms, json={"mach": 0.0, **tsd}), 422, "mach", "Mach > 0")
+    problem(client.post(roms, json={"mach": 0.0, **tsd}), 422, "mach", "Mach >= 0.4")
+    problem(client.post(roms, json={"machs": [0.9, 0.3], **tsd}), 422, "machs", "use the dlm")
     problem(client.post(roms, json={"mach": 0.9, "options": {"thickness_to_chord": 0.2,
                                                               "thickness_form": "naca4"}, **tsd}),
             422, "options.thickness_to_chord", "thin-wing")

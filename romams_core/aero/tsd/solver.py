@@ -33,6 +33,14 @@ from romams_core.mesh import StandardMesh
 
 #: thin-wing theory: thicker sections are refused
 MAX_THICKNESS_TO_CHORD = 0.15
+#: below this Mach the factored scheme needs ever more sub-iterations (the time terms scale with M^2): use the DLM
+MIN_MACH = 0.4
+
+
+def sub_iterations(mach: float) -> int:
+    """Newton sub-iterations per step that keep the factored scheme stable at ``mach`` (measured on the AGARD 445.6
+    grid at dt 0.02: one grows at M 0.5, two are stable from M 0.5 up and grow at M 0.4, three are stable at 0.4)."""
+    return 3 if mach < 0.6 else 2
 #: wing columns of the TSD grid per shape, at least (a coarser grid cannot carry the shapes' slopes)
 MIN_WING_COLUMNS_PER_SHAPE = 20
 
@@ -91,16 +99,17 @@ class TsdSolver:
     """Unsteady, nonlinear, conservative TSD solver (CAP-TSD family) on a sheared planform-fitted grid.
 
     ``thickness_form``/``thickness_to_chord``: the wing section (None: flat plate); ``dt``: the largest internal
-    time step (t*), the signals' step is subdivided to meet it; ``n_sub``: Newton sub-iterations per step (one
-    is the time-linearized AF; a second changed the linear GAF by < 0.1 %). The kernels are serial: numba's
-    parallel loops ran 12x slower with the cores oversubscribed and abort in forked training processes.
+    time step (t*), the signals' step is subdivided to meet it; ``n_sub``: Newton sub-iterations per step (None:
+    ``sub_iterations(mach)``; the lagged cross-derivative and wake terms need them for stability, and a second
+    changed the linear GAF by < 0.1 %). The kernels are serial: numba's parallel loops ran 12x slower with the
+    cores oversubscribed and abort in forked training processes.
     """
 
     thickness_form: str | None = None
     thickness_to_chord: float = 0.0
     grid: GridSpec = field(default_factory=GridSpec)
     dt: float = 0.02
-    n_sub: int = 1
+    n_sub: int | None = None
     sponge_rate: float = 1.0
     coefficients: str = "ames"
     steady_steps: int = 2500
@@ -163,10 +172,22 @@ class TsdSolver:
                              f"need at least {MIN_WING_COLUMNS_PER_SHAPE * m} (refine grid.n_chord or grid.n_span)")
 
     # ----- runs -------------------------------------------------------------------------------------------------
+    def check_mach(self, mach: float) -> float:
+        """Validate a free-stream Mach number for the TSD (MIN_MACH <= M < 1)."""
+        mach = check_mach(mach, upper=1.0)
+        if mach < MIN_MACH:
+            raise InputError("mach", f"the TSD solver needs M >= {MIN_MACH} (its factored scheme is unstable at "
+                             f"lower Mach; use the dlm solver there), got {mach}")
+        return mach
+
+    def n_sub_at(self, mach: float) -> int:
+        """Sub-iterations per time step at ``mach``."""
+        return self.n_sub if self.n_sub is not None else sub_iterations(mach)
+
     def mean_flow(self, mesh: StandardMesh, mach: float, progress: ProgressFn | None = None,
                   share: float = 1.0) -> TsdFlow:
         """Converged steady flow about the wing's thickness at ``mach``; keeps its Cp in ``last_mean_flow``."""
-        mach = check_mach(mach, upper=1.0)
+        mach = self.check_mach(mach)
         grid = self.build_grid(mesh)
         flow = TsdFlow(grid, tsd_coefficients(mach, self.coefficients), sponge_rate=self.sponge_rate)
         slope = self._thickness_slope(grid)[:, None]
@@ -178,8 +199,8 @@ class TsdSolver:
                 progress(share * min(1.0, step / self.steady_steps),
                          f"steady mean flow: step {step}, residual {nmax:.2e}, dphi/dt {change:.2e}")
 
-        result = flow.solve_steady(dt=self.dt, max_steps=self.steady_steps, tol=self.steady_tol, n_sub=self.n_sub,
-                                   check=check)
+        result = flow.solve_steady(dt=self.dt, max_steps=self.steady_steps, tol=self.steady_tol,
+                                   n_sub=self.n_sub_at(mach), check=check)
         if not np.all(np.isfinite(flow.phi)):
             raise RuntimeError(f"TSD steady solution diverged at M = {mach} (reduce dt or refine the grid)")
         up, lo = flow.surface_cp()
@@ -193,7 +214,7 @@ class TsdSolver:
     def simulate(self, mesh: StandardMesh, shapes: np.ndarray, signals: np.ndarray, mach: float, dt_star: float,
                  progress: ProgressFn | None = None) -> np.ndarray:
         """GAC [T, m] (m^3) of shapes [N, m] (m) moving by signals [T, m], about the steady mean flow at ``mach``."""
-        mach = check_mach(mach, upper=1.0)
+        mach = self.check_mach(mach)
         dt_star = check_dt_star(dt_star)
         shapes = check_shapes(mesh, shapes)
         signals = check_signals(signals, shapes.shape[1])
@@ -208,6 +229,7 @@ class TsdSolver:
         n_int = max(1, math.ceil(dt_star / self.dt - 1e-9))
         dt = dt_star / n_int
         n_t = signals.shape[0]
+        n_sub = self.n_sub_at(mach)
         padded = np.vstack([np.zeros((1, signals.shape[1])), signals])  # u = 0 one step before n = 0
         gac = np.zeros((n_t, shapes.shape[1]))
         t_wall = time.perf_counter()
@@ -220,7 +242,7 @@ class TsdSolver:
                 w_mod = hx @ u + h @ udot
                 flow.w_up[wing] = w_up0 + w_mod
                 flow.w_lo[wing] = w_lo0 + w_mod
-                flow.step(dt, self.n_sub)
+                flow.step(dt, n_sub)
             gac[n] = flow.cell_lift(dt)[wing] @ weights - f_mean
             if not np.all(np.isfinite(gac[n])):
                 raise RuntimeError(f"TSD unsteady run diverged at step {n} (M = {mach}); reduce dt")
