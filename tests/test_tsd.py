@@ -146,3 +146,17 @@ def test_linear_limit_matches_the_doublet_lattice():
     phase = np.degrees(np.angle(tsd / dlm))
     assert np.all(np.abs(ratio - 1.0) < 0.06), ratio
     assert np.all(np.abs(phase) < 7.0), phase
+
+
+def test_sponge_layer_is_zero_near_the_wing_and_grows_to_the_boundaries():
+    from romams_core.aero.tsd.flow import sponge_layer
+    from romams_core.aero.tsd.solver import sub_iterations
+
+    g = wing_grid(1.364, 0.659, math.tan(math.radians(46.7)))
+    s = sponge_layer(g, 1.0)
+    assert s.shape == g.shape and s.min() == 0.0 and 0.5 < s.max() <= 1.0  # node centres: short of the edge
+    near = (np.abs(g.xc - 0.5) < 3.0)[:, None, None] & (g.yc < 2.0)[None, :, None] & \
+        (np.abs(g.zc) < 3.0)[None, None, :]
+    assert np.all(s[near] == 0.0)  # the inner half of every far-field extent is undamped
+    assert min(s[0, 0, g.k0], s[-1, 0, g.k0], s[40, 0, 0], s[40, -1, g.k0]) > 0.4
+    assert [sub_iterations(m) for m in (0.4, 0.5, 0.6, 0.9)] == [3, 3, 2, 2]
