@@ -52,12 +52,12 @@ def main() -> None:
         mf = solver.last_mean_flow
         assert mf is not None
         n_samples = 2 * tsd_n_steps(basis.n_basis, 8, 8, rom.dt_star)
-        substeps = int(np.ceil(rom.dt_star / solver.dt - 1e-9))
+        substeps = int(np.ceil(rom.dt_star / solver.time_step(grid) - 1e-9))
         unsteady_steps = n_samples * substeps
         unsteady_s = rom.solver_seconds - mf.steady.seconds
         row = {
             "mach": mach, "grid": list(grid.shape), "grid_points": grid.n_points, "n_basis": basis.n_basis,
-            "dt": solver.dt, "n_sub": solver.n_sub,
+            "dt": solver.time_step(grid), "n_sub": solver.n_sub_at(mach),
             "steady_steps": mf.steady.steps, "steady_converged": mf.steady.converged,
             "steady_s": round(mf.steady.seconds, 2),
             "unsteady_steps": unsteady_steps, "unsteady_s": round(unsteady_s, 2),

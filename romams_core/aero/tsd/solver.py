@@ -37,6 +37,10 @@ MAX_THICKNESS_TO_CHORD = 0.15
 MIN_MACH = 0.4
 
 
+#: the near-wake coupling is explicit: the stable step is about this many trailing-edge cells (root chords)
+TE_CELLS_PER_STEP = 3.0
+
+
 def sub_iterations(mach: float) -> int:
     """Newton sub-iterations per step that keep the factored scheme stable at ``mach`` (measured on the AGARD 445.6
     grid at dt 0.02: one grows at M 0.5, two are stable from M 0.5 up and grow at M 0.4, three are stable at 0.4)."""
@@ -84,12 +88,13 @@ class MeanFlow:
     cp_lower: np.ndarray
     cp_star: float
     steady: SteadyResult
+    dt: float = 0.02  # internal time step (t*)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (lists of floats)."""
         return {"mach": self.mach, "x_over_c": self.x_over_c.tolist(), "eta": self.eta.tolist(),
                 "cp_upper": self.cp_upper.tolist(), "cp_lower": self.cp_lower.tolist(), "cp_star": self.cp_star,
-                "steady_steps": self.steady.steps, "steady_converged": self.steady.converged,
+                "steady_steps": self.steady.steps, "steady_converged": self.steady.converged, "dt": self.dt,
                 "steady_seconds": self.steady.seconds,
                 "residual_history": self.steady.residual_history[:: max(1, self.steady.steps // 200)].tolist()}
 
@@ -180,6 +185,18 @@ class TsdSolver:
                              f"lower Mach; use the dlm solver there), got {mach}")
         return mach
 
+    def time_step(self, grid: TsdGrid) -> float:
+        """Internal time step (t*): ``dt``, capped at TE_CELLS_PER_STEP times the smallest trailing-edge cell.
+
+        The sheared grid scales with the local chord, so a tapered wing's tip has small cells: on the cropped
+        delta (taper 0.2, TE cells down to 0.0036 c_ref) dt 0.02 grew from a perturbed rest state and 0.011 decayed;
+        on AGARD 445.6 (smallest 0.012) 0.02 is stable.
+        """
+        i_te = int(np.flatnonzero(grid.xc < 1.0)[-1])
+        strips = grid.yc < grid.semispan
+        te = (grid.xf[i_te + 1] - grid.xf[i_te]) * grid.chord(grid.yc[strips]).min()
+        return float(min(self.dt, TE_CELLS_PER_STEP * te))
+
     def n_sub_at(self, mach: float) -> int:
         """Sub-iterations per time step at ``mach``."""
         return self.n_sub if self.n_sub is not None else sub_iterations(mach)
@@ -196,10 +213,11 @@ class TsdSolver:
 
         def check(step: int, nmax: float, change: float) -> None:
             if progress is not None and (step % 25 == 0 or step == 1):
-                progress(share * min(1.0, step / self.steady_steps),
+                progress(share * min(1.0, step * dt / (self.steady_steps * self.dt)),
                          f"steady mean flow: step {step}, residual {nmax:.2e}, dphi/dt {change:.2e}")
 
-        result = flow.solve_steady(dt=self.dt, max_steps=self.steady_steps, tol=self.steady_tol,
+        dt = self.time_step(grid)
+        result = flow.solve_steady(dt=dt, max_steps=int(self.steady_steps * self.dt / dt), tol=self.steady_tol,
                                    n_sub=self.n_sub_at(mach), check=check)
         if not np.all(np.isfinite(flow.phi)):
             raise RuntimeError(f"TSD steady solution diverged at M = {mach} (reduce dt or refine the grid)")
@@ -208,7 +226,7 @@ class TsdSolver:
         jw = np.flatnonzero(grid.yc < grid.semispan)
         self.last_mean_flow = MeanFlow(mach=mach, x_over_c=grid.xc[iw], eta=grid.yc[jw] / grid.semispan,
                                        cp_upper=up[np.ix_(iw, jw)], cp_lower=lo[np.ix_(iw, jw)],
-                                       cp_star=flow.coef.cp_star, steady=result)
+                                       cp_star=flow.coef.cp_star, steady=result, dt=dt)
         return flow
 
     def simulate(self, mesh: StandardMesh, shapes: np.ndarray, signals: np.ndarray, mach: float, dt_star: float,
@@ -226,7 +244,7 @@ class TsdSolver:
         dy = np.broadcast_to(np.diff(grid.yf)[None, :], wing.shape)[wing]
         weights = h * (dy * mesh.c_ref ** 3)[:, None]  # [n_wing, m]: cell lift (c_ref units) -> GAC (m^3)
         f_mean = flow.cell_lift()[wing] @ weights
-        n_int = max(1, math.ceil(dt_star / self.dt - 1e-9))
+        n_int = max(1, math.ceil(dt_star / self.time_step(grid) - 1e-9))
         dt = dt_star / n_int
         n_t = signals.shape[0]
         n_sub = self.n_sub_at(mach)
