@@ -17,8 +17,7 @@ from romams_core.aero.tsd.coefficients import TsdCoefficients
 from romams_core.aero.tsd.grid import TsdGrid
 
 #: backward-difference coefficients (phi_tt: a0..a3, phi_t: b0..b2) of the first- and second-order schemes
-TIME_SCHEMES = {0: ((1.0, -1.0, 0.0, 0.0), (0.0, 0.0, 0.0)), 1: ((1.0, -2.0, 1.0, 0.0), (1.0, -1.0, 0.0)),
-                2: ((2.0, -5.0, 4.0, -1.0), (1.5, -2.0, 0.5))}
+TIME_SCHEMES = {1: ((1.0, -2.0, 1.0, 0.0), (1.0, -1.0, 0.0)), 2: ((2.0, -5.0, 4.0, -1.0), (1.5, -2.0, 0.5))}
 #: cap of the upstream non-reflecting coefficient M / (1 - M), singular at M = 1
 UPSTREAM_KAPPA_CAP = 20.0
 
@@ -132,13 +131,11 @@ class TsdFlow:
         for side, z in ((0, g.zf[0]), (1, g.zf[-1])):
             self._far_w[side, :, 0] = grads(g.xc, np.full(g.xc.size, z))[1]
 
-    def _update_gamma(self, steady: bool) -> None:
+    def _update_gamma(self) -> None:
         """Wake jump: the trailing-edge jump convected at the free-stream speed (exactly, from its history)."""
         gte = self.gamma_te()
         if self.vortex_far_field:
             self._vortex_far_field(float(gte[0]))
-        if steady:  # pseudo-time: the jump is updated once per relaxation cycle (solve_steady)
-            return
         if not self._t_hist:
             self.gamma = np.where(self._wake, gte[None, :], 0.0)
             return
@@ -173,10 +170,10 @@ class TsdFlow:
         a, b = TIME_SCHEMES[order]
         return np.array([*a, *b, dt, *self._kappa])
 
-    def newton_iteration(self, tc: np.ndarray, steady: bool) -> tuple[float, float, float]:
+    def newton_iteration(self, tc: np.ndarray) -> tuple[float, float, float]:
         """One residual evaluation and factored solve at the new time level; returns (max|N|, rms N, max|dphi|)."""
         g = self.grid
-        self._update_gamma(steady)
+        self._update_gamma()
         p1, p2, p3 = self.levels
         nmax, nrms = kernels.residual(self.phi, p1, p2, p3, tc, self._co, g.xc, g.xf, g.yc, g.yf, g.zc, g.zf,
                                       self._cj, self._cyf, self._xiy_xf, self._xiy_yf, self._wing, self._wake,
@@ -218,7 +215,7 @@ class TsdFlow:
             self.t += dt
             nmax = dmax = 0.0
             for _ in range(max(1, n_sub)):
-                nmax, _, dmax = self.newton_iteration(tc, steady=False)
+                nmax, _, dmax = self.newton_iteration(tc)
             self._record_gamma()
             dphi = self.phi - self.levels[0]
             change = float(np.max(np.abs(dphi - dphi.mean()))) / dt
@@ -252,7 +249,7 @@ class TsdFlow:
         tc = self._tc(2, dt)
         nmax = dmax = 0.0
         for _ in range(max(1, n_sub)):
-            nmax, _, dmax = self.newton_iteration(tc, steady=False)
+            nmax, _, dmax = self.newton_iteration(tc)
         self._record_gamma()
         return nmax, dmax
 
@@ -304,8 +301,3 @@ class TsdFlow:
             jt = (b0 * jmp + b1 * self.jump(self.levels[0]) + b2 * self.jump(self.levels[1])) / dt
             out = out + 2.0 * jt * np.diff(g.xf)[:, None] * self._cj[None, :]
         return np.where(self._wing, out, 0.0)
-
-    def lifting_cp(self, dt: float | None = None) -> np.ndarray:
-        """Delta Cp = Cp_lower - Cp_upper [ni, nj] on the planform (zero elsewhere), positive for lift."""
-        up, lo = self.surface_cp(dt)
-        return np.nan_to_num(lo - up)
