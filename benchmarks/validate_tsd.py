@@ -10,12 +10,16 @@ Cases (reference data in docs/aerodynamics.md section 14):
 - ``cropped``: cropped delta bare plate at M 0.87 (ISA 10 km, V = M a): flutter dynamic pressure of the TSD and
   the DLM against the experiment (2.40 psi);
 - ``study``: time-step and grid studies at one AGARD point (``--study-mach``, default 0.960): the flutter speed
-  with tsd_dt halved and with the grid scaled by 0.75 and 1.25.
+  with tsd_dt halved, and with the grid scaled by 0.625 and 1.25 (cell sizes halved between the two);
+- ``linear``: the linear limit at M 0.5 and 0.7 on the flat-plate cropped delta and on the AGARD 445.6
+  planform without thickness, each wing's own 4 modes: the TSD ROM's GAF frequency response against the DLM's
+  GAF (not its rational fit) over k = 0.05-1 on c_ref / 2, per entry and relative to the largest entry, and
+  the flutter points of the TSD and DLM ROMs (constant speed V = M a at 10 km).
 
 ``--plot DIR`` writes DIR/agard_flutter_tsd.png (FSI and frequency ratio against Mach, TSD, DLM, experiment).
 One TSD training per point takes minutes (``--processes`` trains Mach numbers in parallel).
 
-    python -m benchmarks.validate_tsd [--cases agard,cropped,study] [--plot docs] [--processes 2]
+    python -m benchmarks.validate_tsd [--cases agard,cropped,study,linear] [--plot docs] [--processes 2]
 """
 
 from __future__ import annotations
@@ -25,6 +29,8 @@ import json
 import math
 import time
 from typing import Any
+
+import numpy as np
 
 from benchmarks.validate_dlm import AGARD_EXPERIMENT, CROPPED_DELTA
 from romams.pipeline import parallel_map
@@ -68,7 +74,7 @@ def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     v = None if r.q_flutter_pa is None else math.sqrt(2.0 * r.q_flutter_pa / rho)
     # constant density at the experimental density, V swept from 0 (the DLM's table in aerodynamics.md 13.2)
     rd = flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, sweep="constant-density", rho_ref=rho,
-                          a_ref=v_exp / mach, v_max=2.0 * v_exp)
+                          a_ref=v_exp / mach, v_max=2.0 * v_exp, k_band=rom.k_max)
     row: dict[str, Any] = {
         "case": "agard-445.6", "mach": mach, "solver": solver, "options": options, "rho": rho, "v_f": v,
         "rho_f": r.rho_flutter, "k_f": r.k_flutter,
@@ -77,7 +83,7 @@ def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
         "fsi_exp": fsi(v_exp, rho, (rho, AGARD_MU[mach])),
         "v_error_pct": None if v is None else 100.0 * (v / v_exp - 1.0),
         "constant_density": {"v_f": rd.v_flutter_m_s, "omega_f": rd.omega_flutter_rad_s, "k_f": rd.k_flutter,
-                             "mode": rd.flutter_mode},
+                             "mode": rd.flutter_mode, "outside_band": rd.outside_band},
         "train_seconds": seconds, "warnings": list(rom.warnings),
     }
     if getattr(rom, "mean_flow", None):
@@ -104,10 +110,62 @@ def _cropped_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
             "q_exp_pa": CROPPED_DELTA["experiment_q_pa_m087"], "train_seconds": seconds}
 
 
+#: reduced frequencies (on c_ref / 2) of the linear-limit GAF comparison
+LINEAR_K = np.linspace(0.05, 1.0, 20)
+#: entries below this share of the largest |GAF| entry at a frequency are reported apart ("small")
+SMALL_ENTRY = 0.1
+
+
+def gaf_agreement(h: np.ndarray, ref: np.ndarray) -> dict[str, Any]:
+    """Agreement of GAF tables h and ref [nk, m, m]: per-entry magnitude (%) and phase (deg) errors, split into
+    entries >= SMALL_ENTRY of the largest |ref| at that k and smaller ones, and the error relative to the
+    largest entry, max_ij |h - ref| / max_ij |ref| (%), per k."""
+    big = np.abs(ref) >= SMALL_ENTRY * np.abs(ref).max(axis=(1, 2), keepdims=True)
+    mag = 100.0 * (np.abs(h) / np.abs(ref) - 1.0)
+    ph = np.degrees(np.angle(h / ref))
+    rel = 100.0 * np.abs(h - ref).max(axis=(1, 2)) / np.abs(ref).max(axis=(1, 2))
+
+    def worst(sel: np.ndarray) -> dict[str, float | None]:
+        if not sel.any():
+            return {"magnitude_pct": None, "phase_deg": None}
+        return {"magnitude_pct": float(np.abs(mag[sel]).max()), "phase_deg": float(np.abs(ph[sel]).max())}
+
+    return {"large_entries": worst(big), "small_entries": worst(~big), "max_error_of_largest_pct": float(rel.max()),
+            "diagonal": worst(np.broadcast_to(np.eye(h.shape[1], dtype=bool), h.shape)),
+            "magnitude_pct": mag.round(2).tolist(), "phase_deg": ph.round(2).tolist()}
+
+
+def _linear_point(args: tuple[str, float, dict[str, Any]]) -> dict[str, Any]:
+    """Linear limit on one wing (no thickness) at one Mach: TSD ROM GAF against the DLM's, and flutter of both."""
+    from romams_core.aero.dlm import DlmSolver
+
+    name, mach, options = args
+    wing = template(name)
+    mesh = standard_mesh(wing.planform)
+    modal = modal_analysis(wing, None, 4, mesh)
+    flat = {"thickness_form": None, "thickness_to_chord": 0.0, **options}
+    t0 = time.perf_counter()
+    tsd = train(mesh, modal.shapes, mach, rom_identity("tsd", options=flat, wing=wing))
+    seconds = time.perf_counter() - t0
+    dlm = train(mesh, modal.shapes, mach, rom_identity("dlm", wing=wing))
+    ref = DlmSolver().gaf(mesh, modal.shapes, mach, LINEAR_K)
+    row: dict[str, Any] = {"case": name, "mach": mach, "k": LINEAR_K.tolist(), "train_seconds": seconds,
+                           "validation_nrmse_max": float(max(tsd.validation_nrmse)),
+                           "gaf_tsd_vs_dlm": gaf_agreement(tsd.ss.freqresp(LINEAR_K), ref),
+                           "gaf_dlm_rom_vs_dlm": gaf_agreement(dlm.ss.freqresp(LINEAR_K), ref)}
+    for solver, rom in (("tsd", tsd), ("dlm", dlm)):
+        r = flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, zeta=wing.modal_damping)
+        row[f"q_f_{solver}"], row[f"omega_f_{solver}"] = r.q_flutter_pa, r.omega_flutter_rad_s
+    if row["q_f_tsd"] and row["q_f_dlm"]:
+        row["v_f_error_pct"] = 100.0 * (math.sqrt(row["q_f_tsd"] / row["q_f_dlm"]) - 1.0)
+        row["omega_f_error_pct"] = 100.0 * (row["omega_f_tsd"] / row["omega_f_dlm"] - 1.0)
+    return row
+
+
 def main() -> None:
     """Run the chosen cases and print one JSON object."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", default="agard,cropped", help="comma list of agard, cropped, study")
+    ap.add_argument("--cases", default="agard,cropped", help="comma list of agard, cropped, study, linear")
     ap.add_argument("--machs", default=",".join(str(m) for m in AGARD_EXPERIMENT), help="AGARD Mach numbers")
     ap.add_argument("--grid-scale", type=float, default=1.0)
     ap.add_argument("--study-mach", type=float, default=0.960)
@@ -129,13 +187,16 @@ def main() -> None:
         out["cropped"] = parallel_map(_cropped_point, [(0.87, "tsd", base), (0.87, "dlm", {})], a.processes)
     if "study" in cases:
         m = a.study_mach
-        variants = [base, {**base, "tsd_dt": 0.01}, {"grid_scale": 0.75 * a.grid_scale},
+        variants = [base, {**base, "tsd_dt": 0.01}, {"grid_scale": 0.625 * a.grid_scale},
                     {"grid_scale": 1.25 * a.grid_scale}]
         rows = parallel_map(_agard_point, [(m, "tsd", v) for v in variants], a.processes)
         ref = rows[0]["v_f"]
         for r in rows:
             r["change_pct"] = None if (ref is None or r["v_f"] is None) else 100.0 * (r["v_f"] / ref - 1.0)
         out["study"] = rows
+    if "linear" in cases:
+        jobs = [(w, m, base) for w in ("cropped-delta", "agard-445.6") for m in (0.5, 0.7)]
+        out["linear"] = parallel_map(_linear_point, jobs, a.processes)
     out["seconds"] = time.perf_counter() - t0
     if a.plot and "agard" in out:
         _plot(out["agard"], a.plot)

@@ -104,8 +104,9 @@ def evaluate_structure(
         sweep_m = INCOMPRESSIBLE_SWEEP if mach == 0.0 else sweep  # no constant speed or Mach-matched flight at M 0
         kw = dict(opts, altitude_range_m=opts.get("altitude_range_m", altitude_range_m)) if sweep_m == "matched" \
             else opts
+        k_band = getattr(by_mach[mach], "k_max", None)  # the identified band, when the ROM carries it
         results.append(flutter_analysis(omega, modal_ss, c_ref, mach, sweep=sweep_m, coupling=coupling, zeta=zeta,
-                                        **kw))
+                                        k_band=None if k_band is None else float(k_band), **kw))
     flying = [r for r in results if r.mach > 0.0]  # Mach 0 (incompressible) has no flight envelope
     env = envelope_from_results(flying, margin, altitude_range_m) if flying else Envelope(
         np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), [], float(margin), np.asarray(altitude_range_m, float))

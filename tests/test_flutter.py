@@ -103,6 +103,17 @@ def test_typical_section_tustin_matches_jones_k_method():
     assert r.k_flutter == pytest.approx(r.omega_flutter_rad_s * HP.semichord_m / r.v_flutter_m_s, rel=1e-12)
 
 
+def test_flutter_point_above_the_identified_band_is_flagged():
+    """k_band: a flutter point above the ROM's identified band keeps its numbers but is flagged with a warning;
+    one inside the band is not (the typical section flutters at k = 0.649 / 2.184 = 0.30)."""
+    inside = run(HP, 0.05, k_band=1.5)
+    outside = run(HP, 0.05, k_band=0.2)
+    assert inside.flutter_found and not inside.outside_band and "WARNING" not in inside.message
+    assert outside.outside_band and "above the band" in outside.message
+    assert outside.q_flutter_pa == pytest.approx(inside.q_flutter_pa, rel=1e-12)
+    assert outside.k_flutter == pytest.approx(0.297, abs=0.01)
+
+
 def test_typical_section_against_exact_theodorsen_and_textbook():
     """Within 1 % of the exact-Theodorsen k-method (Jones fit error) and 2 % of the textbook ~2.18."""
     uf_exact, wf_exact = k_method_flutter(HP, c_theodorsen)

@@ -36,6 +36,7 @@ def flutter_analysis(
     sdoff_q_factor: float = 1.1,
     track_weight: float = 0.5,
     rtol: float = 1e-4,
+    k_band: float | None = None,
 ) -> FlutterResult:
     """Flutter search at one Mach number for structure ``omega`` [k] (rad/s) and modal aero ROM ``aero``.
 
@@ -47,7 +48,10 @@ def flutter_analysis(
     is refined with brentq to ``rtol`` relative. SDOFF when the flutter vector's largest modal share is
     >= ``sdoff_share`` AND that mode alone is unstable at q <= ``sdoff_q_factor`` q_f. Reports the TRUE speed
     ``v_flutter_m_s`` and the equivalent airspeed ``v_eas_m_s``; no flutter in range is a result with
-    flutter_found False. Invalid input raises romams_core.errors.InputError naming the field.
+    flutter_found False. ``k_band`` (reduced frequency on c_ref / 2): the band the ROM was identified in; a
+    flutter point above it is flagged ``outside_band`` with a warning (a time-domain ROM is unconstrained
+    there: e.g. a constant-density sweep from V = 0 starts at k -> infinity). Invalid input raises
+    romams_core.errors.InputError naming the field.
     """
     om, zt, c_ref, mach = check_flutter_inputs(omega, zeta, c_ref, mach, sweep)
     check_search_options(coupling, n_points, sdoff_share, sdoff_q_factor, rtol)
@@ -72,6 +76,11 @@ def flutter_analysis(
     if path.first_unstable == 1 and p_f == br.lo_p:
         point["message"] = "structural branch already unstable at the start of the sweep; " + point["message"]
     point["message"] += _lag_note(path)
+    if k_band is not None and point["k_flutter"] > float(k_band):
+        point["outside_band"] = True
+        point["message"] += (f"; WARNING: k_f = {point['k_flutter']:.3g} is above the band the ROM was identified "
+                             f"in (k <= {float(k_band):g}): the ROM is not valid there, so this crossing is not a "
+                             "prediction (start the sweep where the modes are inside the band)")
     head["modal_share"] = point.pop("modal_share")
     return FlutterResult(**point, **head)
 

@@ -33,6 +33,8 @@ class FlutterResult:
     ``zeta`` = -Re(s)/|s| (positive = stable), ``omega`` = Im(s) (rad/s). ``modal_share`` [k]: modal shares of
     the flutter eigenvector. ``lag_root_flagged``: True when a tracked branch had to be continued on an
     aerodynamic lag root because no structural candidate was left (never seen in practice; the message says so).
+    ``outside_band``: True when the flutter point's reduced frequency is above the band the ROM was identified
+    in (``k_band`` of flutter_analysis); the message then carries a warning.
     """
 
     mach: float
@@ -68,6 +70,7 @@ class FlutterResult:
     altitude_ref_m: float | None = None  # ISA altitude of rho_ref / a_ref (None: both given explicitly)
     v_eas: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [nv] m/s, sqrt(2 q / rho_0)
     lag_root_flagged: bool = False  # a branch was continued on an aero lag root (no structural candidate)
+    outside_band: bool = False  # k_flutter above the ROM's identified band (k_band): the ROM is not valid there
 
 
 def no_flutter_fields() -> dict[str, Any]:
