@@ -25,6 +25,7 @@ from romams_core.mesh import Planform
 from romams_core.validation import check_int, check_number
 
 THICKNESS_FORMS = ("constant", "naca4", "naca65a004")
+BEAM_PLACEMENTS = ("mid-plane", "eccentric")
 
 
 @dataclass(frozen=True)
@@ -99,10 +100,14 @@ class PlateMaterial:
 
 @dataclass(frozen=True)
 class StiffeningBeam:
-    """Rectangular stiffening beam on the plate mid-plane, along a straight line root -> tip.
+    """Rectangular stiffening beam along a straight line root -> tip.
 
     ``root_position``: chord fraction of the root chord; ``tip_position``: chord fraction of the
     tip chord; ``height`` (m, vertical); width = ``width_ratio * height`` (m, in plane).
+    ``placement``: ``"mid-plane"`` (centroid on the plate mid-plane: adds mass, little bending
+    stiffness; the default, and what wings stored without the field mean) or ``"eccentric"``
+    (glued to the plate's lower face, centroid (t_plate + height) / 2 below the mid-plane; the plate
+    then gets membrane DOFs and the beam bends with the plate about the composite neutral axis).
     """
 
     material: PlateMaterial
@@ -110,6 +115,7 @@ class StiffeningBeam:
     tip_position: float
     height: float
     width_ratio: float = 1.0
+    placement: str = "mid-plane"
 
     def __post_init__(self) -> None:
         for f in ("root_position", "tip_position"):
@@ -119,6 +125,8 @@ class StiffeningBeam:
                 raise InputError(f"structure.beam.{f}", f"must be a chord fraction in (0, 1), got {v!r}")
         check_number("structure.beam.height", self.height, 0.0)
         check_number("structure.beam.width_ratio", self.width_ratio, 0.0)
+        if self.placement not in BEAM_PLACEMENTS:
+            raise InputError("structure.beam.placement", f"must be one of {BEAM_PLACEMENTS}, got {self.placement!r}")
 
     @property
     def width(self) -> float:
@@ -428,8 +436,12 @@ CROPPED_DELTA_SWEEP_LE_DEG = 42.927
 CROPPED_DELTA_THICKNESS = 1.5161e-3
 
 
-def cropped_delta() -> WingDefinition:
-    """The ROM-AMS paper's parameter-changeable cropped delta plate wing (Table 1 variables)."""
+def cropped_delta(beam_placement: str = "mid-plane") -> WingDefinition:
+    """The ROM-AMS paper's parameter-changeable cropped delta plate wing (Table 1 variables).
+
+    ``beam_placement``: ``"mid-plane"`` (the template's default) or ``"eccentric"`` (the beam glued to the plate's
+    face as in the paper's Fig. 5; its bending stiffness then includes the offset term EA d^2).
+    """
     cr = CROPPED_DELTA_ROOT_CHORD
     planform = Planform(
         root_chord=cr,
@@ -442,7 +454,8 @@ def cropped_delta() -> WingDefinition:
     plate = PlateStructure(
         material=ALUMINIUM,
         thickness=CROPPED_DELTA_THICKNESS,
-        beam=StiffeningBeam(material=ALUMINIUM, root_position=0.4, tip_position=0.4, height=1.0e-3, width_ratio=1.0),
+        beam=StiffeningBeam(material=ALUMINIUM, root_position=0.4, tip_position=0.4, height=1.0e-3, width_ratio=1.0,
+                            placement=beam_placement),
         lumped_mass=LumpedMass(mass=0.0, span_fraction=0.7),
         fe_n_chord=12,
         fe_n_span=16,

@@ -7,7 +7,7 @@ phi = dw/dx = -alpha with alpha the nose-up twist). Bending uses cubic Hermite w
 phi. Section inertia: mass per length m (kg/m), static moment S = m e (kg) of a centre of mass
 offset e (m) along n, and rotary inertia I_phi about the beam axis per length (kg m), so the
 section kinetic energy is m w'^2 + 2 S w' phi' + I_phi phi'^2 (dots in time). The beam lies on
-the plate's mid-plane (no offset, no membrane coupling).
+the plate's mid-plane (no offset, no membrane coupling); the eccentric stiffener is in ``stiffener.py``.
 """
 
 from __future__ import annotations

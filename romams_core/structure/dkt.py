@@ -78,7 +78,7 @@ def _constraint_matrix(xy: np.ndarray) -> np.ndarray:
     return t
 
 
-def _quadratic_dn(lam: np.ndarray) -> np.ndarray:
+def quadratic_dn(lam: np.ndarray) -> np.ndarray:
     """dN/dL [6, 3] of the 6-node quadratic triangle at area coordinates lam [3] (nodes 4-6 on sides 12, 23, 31)."""
     l1, l2, l3 = lam
     return np.array(
@@ -95,16 +95,16 @@ def _quadratic_dn(lam: np.ndarray) -> np.ndarray:
 
 
 _GAUSS = np.array([[0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
-# The 6-node order in the constraint matrix is corners, then midsides of (1,2), (2,3), (3,1): same as _quadratic_dn.
-_DN_GAUSS = np.stack([_quadratic_dn(g) for g in _GAUSS])  # [3, 6, 3]
-_DN_GAUSS_T = _DN_GAUSS.transpose(0, 2, 1)  # [3 gauss, 3 L, 6 nodes]
+# The 6-node order in the constraint matrix is corners, then midsides of (1,2), (2,3), (3,1): same as quadratic_dn.
+_DN_GAUSS = np.stack([quadratic_dn(g) for g in _GAUSS])  # [3, 6, 3]
+DN_MIDSIDES_T = _DN_GAUSS.transpose(0, 2, 1)  # [3 gauss, 3 L, 6 nodes]
 
 
 def curvature_matrices(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Curvature-displacement matrices B [E, 3 gauss, 3, 9] (1/m) at the side midpoints and areas [E] (m^2)."""
     area, dldx, dldy = triangle_geometry(xy)
-    nx = np.matmul(dldx, _DN_GAUSS_T).transpose(1, 0, 2)  # [E, 3 gauss, 6 nodes]
-    ny = np.matmul(dldy, _DN_GAUSS_T).transpose(1, 0, 2)
+    nx = np.matmul(dldx, DN_MIDSIDES_T).transpose(1, 0, 2)  # [E, 3 gauss, 6 nodes]
+    ny = np.matmul(dldy, DN_MIDSIDES_T).transpose(1, 0, 2)
     bq = np.zeros(xy.shape[:1] + (3, 3, 12))
     bq[:, :, 0, 0::2] = nx
     bq[:, :, 1, 1::2] = ny

@@ -1,6 +1,8 @@
 """Modal analysis of a wing definition: FE assembly, clamped-root eigenproblem, mapping to the standard mesh.
 
-Plate wings: DKT plate + mid-plane stiffening beam + leading-edge point mass (``PlateStructure``).
+Plate wings: DKT plate + stiffening beam + leading-edge point mass (``PlateStructure``). With the beam on the
+mid-plane the plate has bending DOFs only (w, w_x, w_y per node); with an eccentric beam it is a flat shell
+(+ Allman membrane u, v, theta_z per node) and the beam is linked to the plate at its centroid's offset.
 Beam wings: Euler-Bernoulli bending-torsion beam on the elastic axis with rigid chordwise sections
 (``BeamStructure``), w(x, y) = h(y) - (x - x_ea) alpha(y).
 
@@ -21,7 +23,7 @@ from scipy.sparse.linalg import LinearOperator, eigsh
 
 from romams_core.errors import InputError
 from romams_core.mesh import Planform, StandardMesh, standard_mesh
-from romams_core.structure.beam import beam_element_matrices, rectangle_torsion_constant
+from romams_core.structure.beam import beam_element_matrices
 from romams_core.structure.dkt import (
     bernstein_coefficients,
     bernstein_values,
@@ -29,7 +31,10 @@ from romams_core.structure.dkt import (
     dkt_stiffness,
     triangle_geometry,
 )
+from romams_core.structure.membrane import membrane_mass, membrane_stiffness
 from romams_core.structure.plate_mesh import PlateMesh, locate, plate_mesh
+from romams_core.structure.plate_parts import beam_parts, lumped_mass_part, node_dofs
+from romams_core.structure.stiffener import SHELL_DOFS
 from romams_core.wing import BeamStructure, PlateStructure, WingDefinition
 
 
@@ -54,15 +59,20 @@ class ModalResult:
 
 @dataclass
 class FEModel:
-    """Assembled FE model: sparse K (N/m ...) and M (kg ...) on 3 DOFs per node, with bookkeeping."""
+    """Assembled FE model: sparse K (N/m ...) and M (kg ...), with bookkeeping.
+
+    ``dofs_per_node``: 3 (w, w_x, w_y) or 6 (flat shell: w, w_x, w_y, u, v, theta_z); w of node p is DOF
+    ``dofs_per_node * p`` either way.
+    """
 
     K: sp.csc_matrix
     M: sp.csc_matrix
     free: np.ndarray  # [n_free] DOF indices not clamped
     xy: np.ndarray  # [P, 2] node coordinates, m
     mass_kg: float
-    interp: sp.csr_matrix  # [N_std, 3 P] map from DOFs to w on the standard mesh
+    interp: sp.csr_matrix  # [N_std, dofs_per_node P] map from DOFs to w on the standard mesh
     triangles: np.ndarray  # [E, 3] (empty for beams)
+    dofs_per_node: int = 3
 
 
 def _assemble(conn: np.ndarray, ke: np.ndarray, n_dof: int) -> sp.csc_matrix:
@@ -76,11 +86,6 @@ def _assemble_many(parts: list[tuple[np.ndarray, np.ndarray]], n_dof: int) -> sp
     cols = np.concatenate([np.tile(c, (1, c.shape[1])).ravel() for c, _ in parts])
     vals = np.concatenate([k.ravel() for _, k in parts])
     return sp.csc_matrix((vals, (rows, cols)), shape=(n_dof, n_dof))
-
-
-def _dofs(nodes: np.ndarray) -> np.ndarray:
-    """DOF connectivity [E, 3 n] of element node lists [E, n] (3 DOFs per node)."""
-    return (3 * nodes[:, :, None] + np.arange(3)).reshape(nodes.shape[0], -1)
 
 
 def naca4_thickness_form(xi: np.ndarray) -> np.ndarray:
@@ -130,69 +135,66 @@ def plate_thickness(planform: Planform, s: PlateStructure, x: np.ndarray, y: np.
     return t * s.thickness_ratio
 
 
-def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None = None) -> FEModel:
-    """Assemble the plate (+ beam + lumped mass) FE model with a clamped root."""
+def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None = None,
+                membrane: bool | None = None) -> FEModel:
+    """Assemble the plate (+ beam + lumped mass) FE model with a clamped root.
+
+    membrane: give the plate membrane DOFs (flat shell); None: exactly when the beam is eccentric.
+    """
     beam = s.beam
+    if membrane is None:
+        membrane = beam is not None and beam.placement == "eccentric"
+    if not membrane and beam is not None and beam.placement == "eccentric":
+        raise InputError("structure.beam.placement", "an eccentric beam needs the plate's membrane DOFs")
+    stride = SHELL_DOFS if membrane else 3
     pm = plate_mesh(planform, s.fe_n_chord, s.fe_n_span, None if beam is None else (beam.root_position,
                                                                                     beam.tip_position))
-    n_dof = 3 * pm.n_nodes
     tri = pm.triangles
     exy = pm.xy[tri]  # [E, 3, 2]
     cen = exy.mean(axis=1)
     h = plate_thickness(planform, s, cen[:, 0], cen[:, 1])
     q = s.material.plane_stress_q()
-    d = (h**3 / 12.0)[:, None, None] * q[None]
-    ke = dkt_stiffness(exy, d)
-    me = cubic_mass(exy, s.material.density * h)
-    conn = _dofs(tri)
-    k_parts, m_parts = [(conn, ke)], [(conn, me)]
+    rho_h = s.material.density * h
+    conn = node_dofs(tri, stride)
+    k_parts = [(conn, dkt_stiffness(exy, (h**3 / 12.0)[:, None, None] * q[None]))]
+    m_parts = [(conn, cubic_mass(exy, rho_h))]
+    if membrane:
+        mconn = node_dofs(tri, stride, 3)
+        k_parts.append((mconn, membrane_stiffness(exy, h[:, None, None] * q[None])))
+        m_parts.append((mconn, membrane_mass(exy, rho_h)))
     area, _, _ = triangle_geometry(exy)
-    mass = float(np.sum(s.material.density * h * area))
+    mass = float(np.sum(rho_h * area))
     if beam is not None:
         bn = pm.beam_nodes()
-        bnodes = np.column_stack([bn[:-1], bn[1:]])
-        bh, bw = beam.height, beam.width
-        a = bh * bw
-        ei = beam.material.E1 * bw * bh**3 / 12.0
-        gj = beam.material.G12 * rectangle_torsion_constant(bh, bw)
-        rho = beam.material.density
-        kb, mb = beam_element_matrices(pm.xy[bnodes], ei, gj, rho * a, 0.0, rho * a * (bh**2 + bw**2) / 12.0)
-        bconn = _dofs(bnodes)
-        k_parts.append((bconn, kb))
-        m_parts.append((bconn, mb))
-        mass += float(rho * a * np.sum(np.linalg.norm(pm.xy[bn[1:]] - pm.xy[bn[:-1]], axis=1)))
+        mid = 0.5 * (pm.xy[bn[:-1]] + pm.xy[bn[1:]])
+        kb, mb, beam_mass = beam_parts(pm, beam, plate_thickness(planform, s, mid[:, 0], mid[:, 1]), stride)
+        k_parts.append(kb)
+        m_parts.append(mb)
+        mass += beam_mass
     if s.lumped_mass is not None and s.lumped_mass.mass > 0.0:
-        lm = s.lumped_mass
-        pos = lm.span_fraction * pm.n_span
-        j0 = int(min(np.floor(pos), pm.n_span - 1))
-        u = pos - j0
-        na, nb = pm.node(0, j0), pm.node(0, j0 + 1)
-        dvec = pm.xy[nb] - pm.xy[na]
-        length = float(np.linalg.norm(dvec))
-        tvec = dvec / length
-        hv = np.array([1 - 3 * u**2 + 2 * u**3, length * (u - 2 * u**2 + u**3), 3 * u**2 - 2 * u**3,
-                       length * (-(u**2) + u**3)])
-        nvec = np.array([hv[0], hv[1] * tvec[0], hv[1] * tvec[1], hv[2], hv[3] * tvec[0], hv[3] * tvec[1]])
-        idx = np.r_[3 * na : 3 * na + 3, 3 * nb : 3 * nb + 3]
-        m_parts.append((idx[None], (lm.mass * np.outer(nvec, nvec))[None]))
-        mass += float(lm.mass)
+        m_parts.append(lumped_mass_part(pm, s.lumped_mass.mass, s.lumped_mass.span_fraction, stride))
+        mass += float(s.lumped_mass.mass)
+    n_dof = stride * pm.n_nodes
     root = pm.node(np.arange(pm.n_chord + 1), 0)
     clamped = np.zeros(n_dof, dtype=bool)
-    clamped[_dofs(root[None]).ravel()] = True
+    clamped[node_dofs(root[None], stride, 0, stride).ravel()] = True
     mesh = mesh if mesh is not None else standard_mesh(planform)
     K, M = _assemble_many(k_parts, n_dof), _assemble_many(m_parts, n_dof)
     return FEModel(K=K, M=M, free=np.flatnonzero(~clamped), xy=pm.xy, mass_kg=mass,
-                   interp=plate_interpolation(pm, planform, mesh.x, mesh.y), triangles=tri)
+                   interp=plate_interpolation(pm, planform, mesh.x, mesh.y, stride), triangles=tri,
+                   dofs_per_node=stride)
 
 
-def plate_interpolation(pm: PlateMesh, planform: Planform, x: np.ndarray, y: np.ndarray) -> sp.csr_matrix:
-    """Sparse [P_target, 3 P] map from plate DOFs to w at points (m), by the elements' cubic interpolation."""
+def plate_interpolation(pm: PlateMesh, planform: Planform, x: np.ndarray, y: np.ndarray,
+                        stride: int = 3) -> sp.csr_matrix:
+    """Sparse [P_target, stride P] map from plate DOFs (stride per node) to w at points (m), by the elements' cubic
+    interpolation."""
     t, lam = locate(pm, x, y, planform.semispan)
     tri = pm.triangles[t]
     c = bernstein_coefficients(pm.xy[tri])  # [P, 10, 9]
     vals = np.einsum("pa,pai->pi", bernstein_values(lam), c)
     rows = np.repeat(np.arange(t.size), 9)
-    return sp.csr_matrix((vals.ravel(), (rows, _dofs(tri).ravel())), shape=(t.size, 3 * pm.n_nodes))
+    return sp.csr_matrix((vals.ravel(), (rows, node_dofs(tri, stride).ravel())), shape=(t.size, stride * pm.n_nodes))
 
 
 def beam_model(planform: Planform, s: BeamStructure, mesh: StandardMesh | None = None) -> FEModel:
@@ -211,7 +213,7 @@ def beam_model(planform: Planform, s: BeamStructure, mesh: StandardMesh | None =
     m = s.mass_per_length
     kb, mb = beam_element_matrices(exy, s.EI, s.GJ, m, m * offset, s.inertia_ea_per_length)
     n_dof = 3 * (ne + 1)
-    conn = _dofs(nodes)
+    conn = node_dofs(nodes)
     K = _assemble(conn, kb, n_dof)
     M = _assemble(conn, mb, n_dof)
     free = np.arange(3, n_dof)
@@ -268,7 +270,7 @@ def _stiffness_inverse(k: sp.spmatrix) -> LinearOperator | None:
 
 
 def solve_modes(model: FEModel, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest eigenpairs: omega [k] (rad/s) and mass-normalized full-DOF modes [3P, k] (clamped DOFs zero)."""
+    """Lowest eigenpairs: omega [k] (rad/s) and mass-normalized full-DOF modes [n_dof, k] (clamped DOFs zero)."""
     f = model.free
     kff = model.K[f][:, f]
     mff = model.M[f][:, f]
@@ -306,7 +308,7 @@ def modal_analysis(
     imax = np.argmax(np.abs(shapes), axis=0)
     sign = np.where(shapes[imax, np.arange(shapes.shape[1])] < 0.0, -1.0, 1.0)
     shapes = shapes * sign
-    fe_w = phi[0::3] * sign
+    fe_w = phi[0 :: model.dofs_per_node] * sign
     return ModalResult(
         frequencies_hz=omega / (2.0 * np.pi),
         omega=omega,
