@@ -57,6 +57,23 @@ def fsi(v: float, rho: float, mass_ratio_ref: tuple[float, float]) -> float:
 AGARD_MU = {0.499: 33.465, 0.678: 68.753, 0.901: 143.920, 0.960: 225.820}
 
 
+def _guarded(fn: Any) -> Any:
+    """Run a point function; a TrainingError becomes a row with its message (the other points still run)."""
+    from functools import wraps
+
+    from romams_core.training import TrainingError
+
+    @wraps(fn)
+    def run(args: tuple[Any, ...]) -> dict[str, Any]:
+        try:
+            return fn(args)
+        except TrainingError as exc:
+            return {"args": list(args), "error": str(exc)}
+
+    return run
+
+
+@_guarded
 def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     """Train one ROM on the AGARD wing's own modes and find its flutter point at the experimental density."""
     mach, solver, options = args
@@ -94,6 +111,7 @@ def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     return row
 
 
+@_guarded
 def _cropped_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     """Cropped delta bare plate at ISA 10 km, V = M a: flutter dynamic pressure of one solver's own-mode ROM."""
     mach, solver, options = args
@@ -135,6 +153,7 @@ def gaf_agreement(h: np.ndarray, ref: np.ndarray) -> dict[str, Any]:
             "magnitude_pct": mag.round(2).tolist(), "phase_deg": ph.round(2).tolist()}
 
 
+@_guarded
 def _linear_point(args: tuple[str, float, dict[str, Any]]) -> dict[str, Any]:
     """Linear limit on one wing (no thickness) at one Mach: TSD ROM GAF against the DLM's, and flutter of both."""
     from romams_core.aero.dlm import DlmSolver
@@ -180,7 +199,7 @@ def main() -> None:
         machs = [float(m) for m in a.machs.split(",")]
         jobs = [(m, "tsd", base) for m in machs] + [(m, "dlm", {}) for m in machs]
         out["agard"] = parallel_map(_agard_point, jobs, a.processes)
-        tsd = {r["mach"]: r for r in out["agard"] if r["solver"] == "tsd"}
+        tsd = {r["mach"]: r for r in out["agard"] if r.get("solver") == "tsd"}
         if 0.901 in tsd and 0.960 in tsd and tsd[0.901]["fsi"] and tsd[0.960]["fsi"]:
             out["transonic_dip_pct"] = 100.0 * (1.0 - tsd[0.960]["fsi"] / tsd[0.901]["fsi"])
     if "cropped" in cases:
@@ -190,9 +209,9 @@ def main() -> None:
         variants = [base, {**base, "tsd_dt": 0.01}, {"grid_scale": 0.625 * a.grid_scale},
                     {"grid_scale": 1.25 * a.grid_scale}]
         rows = parallel_map(_agard_point, [(m, "tsd", v) for v in variants], a.processes)
-        ref = rows[0]["v_f"]
+        ref = rows[0].get("v_f")
         for r in rows:
-            r["change_pct"] = None if (ref is None or r["v_f"] is None) else 100.0 * (r["v_f"] / ref - 1.0)
+            r["change_pct"] = None if (ref is None or r.get("v_f") is None) else 100.0 * (r["v_f"] / ref - 1.0)
         out["study"] = rows
     if "linear" in cases:
         jobs = [(w, m, base) for w in ("cropped-delta", "agard-445.6") for m in (0.5, 0.7)]
@@ -216,7 +235,7 @@ def _plot(rows: list[dict[str, Any]], directory: str) -> None:
              label="experiment (Yates)")
     ax2.plot(machs, [AGARD_EXPERIMENT[m][2] / OMEGA_ALPHA for m in machs], "ks-", label="experiment")
     for solver, style in (("tsd", "o-"), ("dlm", "^--")):
-        pts = sorted((r["mach"], r) for r in rows if r["solver"] == solver and r["v_f"] is not None)
+        pts = sorted((r["mach"], r) for r in rows if r.get("solver") == solver and r.get("v_f") is not None)
         ax1.plot([m for m, _ in pts], [r["fsi"] for _, r in pts], style, label=solver.upper())
         ax2.plot([m for m, _ in pts], [r["omega_f"] / OMEGA_ALPHA for _, r in pts], style, label=solver.upper())
     ax1.set_xlabel("Mach")

@@ -126,6 +126,7 @@ def train_rom(
     reduce_tol: float = 0.002,
     progress: ProgressFn | None = None,
     displacement_fraction: float = 0.01,
+    order_fallbacks: tuple[tuple[int, int], ...] = (),
 ) -> TrainedRom:
     """Identify an ARX ROM of ``solver`` for shapes [N, m] (m) at ``mach``; one solver run trains and validates.
 
@@ -139,6 +140,8 @@ def train_rom(
     the smallest order (steps of m) of a frequency-limited
     balanced truncation (|k| <= k_max) that is stable and keeps every validation NRMSE <= ``reduce_tol``
     (falls back to the full model). The reduced model must meet nrmse_tol too. Default dt_star = 1 / n_chord.
+    ``order_fallbacks``: further (na, nb) tried in turn on the same records when (na, nb) misses nrmse_tol; the
+    first that meets it is kept (with a note), else the error names the best one.
     """
     t_start = time.perf_counter()
     mach = check_mach(mach)
@@ -168,45 +171,29 @@ def train_rom(
     if progress is not None:
         progress(0.92, "identifying ARX model")
     n = int(n_steps)
-    arx = fit_arx(exc.train, gac[:n], na=na, nb=nb, ridge=ridge, dt_star=dt_star)
-    full = arx_to_ss(arx, dt_star)
-    notes: list[str] = []
-    rho = full.spectral_radius()
-    ar_ridge = 0.0
-    for lam in _AR_RIDGES if not rho < 1.0 else ():  # a few regularization levels
-        trial = fit_arx(exc.train, gac[:n], na=na, nb=nb, ridge=ridge, dt_star=dt_star, ar_ridge=lam)
-        trial_ss = arx_to_ss(trial, dt_star)
-        if trial_ss.spectral_radius() < 1.0:
-            notes.append(f"plain ARX fit was unstable (spectral radius {rho:.4f}); refitted with ar_ridge = {lam:g}")
-            arx, full, ar_ridge = trial, trial_ss, lam
+    if isinstance(reduce_order, str) and reduce_order != "auto":
+        raise InputError("reduce_order", f"must be an integer, 'auto' or None, got {reduce_order!r}")
+    fits: list[_Fit] = []
+    for na_i, nb_i in [(na, nb), *[(int(a), int(b)) for a, b in order_fallbacks]]:  # a few candidate orders
+        fit = _identify(exc.train, gac, both, n, m, na_i, nb_i, ridge, dt_star, k_max, reduce_order, hsv_tol,
+                        reduce_tol, progress)
+        fits.append(fit)
+        if np.all(fit.val <= nrmse_tol):
             break
-    pred_arx = arx_simulate(arx, both) if full.spectral_radius() < 1.0 else np.zeros_like(gac)
-    if not full.spectral_radius() < 1.0:
-        full, pred_arx, n_ref = _stabilize(full, exc.train, gac, both, n)
-        notes.append(
-            f"ARX fit had {n_ref} unstable pole(s) (spectral radius {rho:.4f}) even with ar_ridge; reflected to "
-            "1/conj(z) (output map refitted when that validated better), then validated"
-        )
-    training_nrmse = nrmse(gac[:n], pred_arx[:n])
-    arx_val = nrmse(gac[n:], pred_arx[n:])
-    ss, hsv = full, np.zeros(0)
-    if reduce_order == "auto":
-        if progress is not None:
-            progress(0.95, "frequency-limited balanced truncation")
-        ss, hsv = _auto_reduce(full, both, gac, n, m, k_max, reduce_tol)
-    elif reduce_order is not None or hsv_tol is not None:
-        if isinstance(reduce_order, str):
-            raise InputError("reduce_order", f"must be an integer, 'auto' or None, got {reduce_order!r}")
-        if progress is not None:
-            progress(0.95, "balanced truncation")
-        ss, hsv = balanced_truncation(full, order=reduce_order, hsv_tol=hsv_tol)
-    pred = ss.simulate(both)[n:] if ss is not full else pred_arx[n:]
-    val = nrmse(gac[n:], pred)
+    fit = min(fits, key=lambda f: float(np.max(f.val)))
+    arx, full, ss, hsv, pred, val = fit.arx, fit.full, fit.ss, fit.hsv, fit.pred, fit.val
+    na, nb, notes = fit.na, fit.nb, fit.notes
     bad = [int(i) for i in np.flatnonzero(~(val <= nrmse_tol))]
     if bad:
         detail = ", ".join(f"output {i}: {val[i]:.4f}" for i in bad)
         raise TrainingError(f"validation NRMSE above nrmse_tol = {nrmse_tol:g} for {detail} "
-                            f"(states {ss.n_states}, na = {na}, nb = {nb})", outputs=bad)
+                            f"(states {ss.n_states}, na = {na}, nb = {nb}"
+                            f"{'; best of orders ' + str([(f.na, f.nb) for f in fits]) if len(fits) > 1 else ''})",
+                            outputs=bad)
+    if len(fits) > 1:
+        failed = ", ".join(f"{f.na}/{f.nb} ({100 * float(np.max(f.val)):.2f} %)" for f in fits if f is not fit)
+        notes.append(f"ARX orders {failed} missed the validation tolerance; refitted with {na}/{nb} on the same "
+                     "records")
     if progress is not None:
         progress(1.0, f"trained: max validation NRMSE {val.max():.4f}")
     info = solver.info(mach) if hasattr(solver, "info") else None
@@ -230,16 +217,75 @@ def train_rom(
         gac_train=gac[:n],
         gac_validation=gac[n:],
         predicted_validation=pred,
-        training_nrmse=training_nrmse,
+        training_nrmse=fit.training_nrmse,
         validation_nrmse=val,
-        arx_validation_nrmse=arx_val,
+        arx_validation_nrmse=fit.arx_val,
         spectral_radius=float(ss.spectral_radius()),
         nrmse_tol=float(nrmse_tol),
         warnings=(list(info.warnings) if info is not None else []) + notes,
         train_seconds=time.perf_counter() - t_start,
         solver_seconds=solver_seconds,
-        ar_ridge=float(ar_ridge),
+        ar_ridge=float(fit.ar_ridge),
     )
+
+
+@dataclass
+class _Fit:
+    """One identified model of a training run: ARX, its realization, the (reduced) ROM and its validation."""
+
+    na: int
+    nb: int
+    arx: ArxModel
+    full: DiscreteSS
+    ss: DiscreteSS
+    hsv: np.ndarray
+    pred: np.ndarray  # [T_val, m] ROM output on the validation signal
+    val: np.ndarray  # [m] validation NRMSE of ss
+    training_nrmse: np.ndarray
+    arx_val: np.ndarray
+    ar_ridge: float
+    notes: list[str]
+
+
+def _identify(
+    u_train: np.ndarray, gac: np.ndarray, both: np.ndarray, n: int, m: int, na: int, nb: int, ridge: float,
+    dt_star: float, k_max: float, reduce_order: int | str | None, hsv_tol: float | None, reduce_tol: float,
+    progress: ProgressFn | None,
+) -> _Fit:
+    """ARX of orders (na, nb) fitted on the first n samples of gac [T, m], stabilized, reduced and validated."""
+    arx = fit_arx(u_train, gac[:n], na=na, nb=nb, ridge=ridge, dt_star=dt_star)
+    full = arx_to_ss(arx, dt_star)
+    notes: list[str] = []
+    rho = full.spectral_radius()
+    ar_ridge = 0.0
+    for lam in _AR_RIDGES if not rho < 1.0 else ():  # a few regularization levels
+        trial = fit_arx(u_train, gac[:n], na=na, nb=nb, ridge=ridge, dt_star=dt_star, ar_ridge=lam)
+        trial_ss = arx_to_ss(trial, dt_star)
+        if trial_ss.spectral_radius() < 1.0:
+            notes.append(f"plain ARX fit was unstable (spectral radius {rho:.4f}); refitted with ar_ridge = {lam:g}")
+            arx, full, ar_ridge = trial, trial_ss, lam
+            break
+    pred_arx = arx_simulate(arx, both) if full.spectral_radius() < 1.0 else np.zeros_like(gac)
+    if not full.spectral_radius() < 1.0:
+        full, pred_arx, n_ref = _stabilize(full, u_train, gac, both, n)
+        notes.append(
+            f"ARX fit had {n_ref} unstable pole(s) (spectral radius {rho:.4f}) even with ar_ridge; reflected to "
+            "1/conj(z) (output map refitted when that validated better), then validated"
+        )
+    ss, hsv = full, np.zeros(0)
+    if reduce_order == "auto":
+        if progress is not None:
+            progress(0.95, "frequency-limited balanced truncation")
+        ss, hsv = _auto_reduce(full, both, gac, n, m, k_max, reduce_tol)
+    elif reduce_order is not None or hsv_tol is not None:
+        if progress is not None:
+            progress(0.95, "balanced truncation")
+        ss, hsv = balanced_truncation(full, order=None if isinstance(reduce_order, str) else reduce_order,
+                                      hsv_tol=hsv_tol)
+    pred = ss.simulate(both)[n:] if ss is not full else pred_arx[n:]
+    return _Fit(na=na, nb=nb, arx=arx, full=full, ss=ss, hsv=hsv, pred=pred, val=nrmse(gac[n:], pred),
+                training_nrmse=nrmse(gac[:n], pred_arx[:n]), arx_val=nrmse(gac[n:], pred_arx[n:]),
+                ar_ridge=ar_ridge, notes=notes)
 
 
 def _stabilize(

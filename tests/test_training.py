@@ -66,6 +66,18 @@ def test_train_rom_on_synthetic_shapes_and_tolerance_failure():
         train_rom(mesh, shapes, 0.6, solver, nrmse_tol=0.0)
 
 
+def test_order_fallbacks_refit_the_same_records():
+    """Orders 1/1 miss a 1 % tolerance; the fallback 6/6 meets it on the same run and is kept, with a note."""
+    mesh, shapes = _synthetic()
+    solver = UvlmSolver(wake_chords=10.0)
+    rom = train_rom(mesh, shapes, 0.6, solver, na=1, nb=1, n_steps=1200, nrmse_tol=0.01, reduce_order=None,
+                    order_fallbacks=((6, 6),))
+    assert (rom.na, rom.nb) == (6, 6) and rom.validation_nrmse.max() < 0.01
+    assert any("orders 1/1" in w and "refitted with 6/6" in w for w in rom.warnings)
+    with pytest.raises(TrainingError, match=r"best of orders \[\(1, 1\), \(2, 1\)\]"):
+        train_rom(mesh, shapes, 0.6, solver, na=1, nb=1, n_steps=600, nrmse_tol=1e-4, order_fallbacks=((2, 1),))
+
+
 @pytest.fixture(scope="module")
 def cropped_delta():
     wing = template("cropped-delta")
