@@ -7,18 +7,27 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
-from fastapi import FastAPI
+from fastapi import Depends, FastAPI
 from fastapi.responses import RedirectResponse
 from fastapi.staticfiles import StaticFiles
+from starlette.types import ASGIApp
 
 from api import problems
-from api.deps import Service
+from api.deps import Service, service
+from api.middleware import RequestGuard, SecurityHeaders
 from romams import __version__
 from romams.jobs import StaleSweeper
 from romams.persistence import open_store
 from romams.settings import Settings, get_settings
 
 STATIC_DIR = Path(__file__).resolve().parent / "static"
+
+
+class RomamsAPI(FastAPI):
+    """FastAPI with the security headers outside everything else (also on Starlette's own 500 page)."""
+
+    def build_middleware_stack(self) -> ASGIApp:
+        return SecurityHeaders(super().build_middleware_stack())
 
 
 def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper: bool = True) -> FastAPI:
@@ -39,11 +48,12 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
             if sw is not None:
                 sw.stop()
 
-    app = FastAPI(title="romams", version=__version__, lifespan=lifespan,
+    app = RomamsAPI(title="romams", version=__version__, lifespan=lifespan,
                   description="ROM-AMS flutter service: wings, PCA bases, aerodynamic ROM training, flutter "
                               "evaluation of arbitrary structures. Errors are RFC 9457 problem+json.")
     app.state.service = Service(settings=settings, store=store, celery=celery)
     problems.install(app)
+    app.add_middleware(RequestGuard, settings=settings)
 
     from api.dashboard import router as dashboard_router
     from api.routes import flutter, jobs, modes, wings
@@ -57,10 +67,10 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
     def root() -> RedirectResponse:
         return RedirectResponse("/dashboard")
 
-    @app.get("/api/v1/health", tags=["meta"])
-    def health() -> dict[str, Any]:
-        """Liveness + database check."""
-        return {"status": "ok", "version": __version__, "database": store.ping()}
+    @app.get("/api/v1/health", tags=["meta"], responses={503: {"description": "the database is unavailable"}})
+    def health(svc: Service = Depends(service)) -> dict[str, Any]:
+        """Liveness + database check (503 problem with Retry-After while the database is unavailable)."""
+        return {"status": "ok", "version": __version__, "database": svc.store.ping()}
 
     return app
 

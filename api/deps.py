@@ -8,9 +8,11 @@ from typing import Any
 
 from fastapi import Request
 
-from api.problems import Problem
+from api.problems import Problem, invalid
 from romams.persistence import Store
 from romams.settings import Settings
+
+WING_NAME_MAX = 200  # the wings.name column
 
 
 @dataclass
@@ -28,25 +30,56 @@ def service(request: Request) -> Service:
     return request.app.state.service
 
 
-def require_key(request: Request) -> None:
-    """Mutating endpoints: ``Authorization: Bearer <key>`` must match a configured key (if any are)."""
-    keys = request.app.state.service.settings.api_keys
+def key_problem(keys: list[str], authorization: str) -> Problem | None:
+    """The 401/403 problem of an ``Authorization`` header that does not carry one of ``keys`` (None when it does,
+    or when no key is configured). The comparison is constant-time."""
     if not keys:
-        return
-    auth = request.headers.get("authorization", "")
-    scheme, _, token = auth.partition(" ")
+        return None
+    scheme, _, token = authorization.partition(" ")
     if scheme.lower() != "bearer" or not token:
-        raise Problem(401, "authorization: a Bearer API key is required for this endpoint", "authorization",
-                      headers={"WWW-Authenticate": "Bearer"})
+        return Problem(401, "authorization: a Bearer API key is required for this endpoint", "authorization",
+                       headers={"WWW-Authenticate": "Bearer"})
     if not any(hmac.compare_digest(token.strip().encode(), k.encode()) for k in keys):
-        raise Problem(403, "authorization: the API key is not valid", "authorization")
+        return Problem(403, "authorization: the API key is not valid", "authorization")
+    return None
+
+
+def require_key(request: Request) -> None:
+    """Mutating endpoints: ``Authorization: Bearer <key>`` must match a configured key (if any are). The request
+    guard (api.middleware) makes the same check before the body is read; this one documents it per route."""
+    problem = key_problem(request.app.state.service.settings.api_keys, request.headers.get("authorization", ""))
+    if problem is not None:
+        raise problem
+
+
+def no_nul(value: Any, field: str) -> Any:
+    """``value`` unchanged unless a string in it (a key or a value of a nested JSON object, at any depth) holds a
+    NUL character, which PostgreSQL text cannot store: then 422 naming the place (``field`` + the path inside)."""
+    stack: list[tuple[str, Any]] = [(field, value)]
+    while stack:
+        path, v = stack.pop()
+        if isinstance(v, str):
+            if "\x00" in v:
+                raise invalid(path, "must not contain NUL characters")
+        elif isinstance(v, dict):
+            for k, x in v.items():
+                if isinstance(k, str) and "\x00" in k:
+                    raise invalid(path, "a key must not contain NUL characters")
+                stack.append((f"{path}.{k}", x))
+        elif isinstance(v, list | tuple):
+            stack.extend((f"{path}[{i}]", x) for i, x in enumerate(v))
+    return value
 
 
 def wing_or_404(svc: Service, wing_ref: str) -> tuple[int, Any]:
-    """(id, WingDefinition) by id or name, else 404 naming the wing (a found wing is cached: wings are immutable)."""
+    """(id, WingDefinition) by id or name, else 404 naming the wing (a found wing is cached: wings are immutable).
+    An id beyond the id columns' range, or a name longer than a stored one can be, is not looked up: 404."""
     hit = svc.wings.get(wing_ref)
     if hit is not None:
         return hit
+    no_nul(wing_ref, "wing")
+    if len(wing_ref) > WING_NAME_MAX:
+        raise Problem(404, f"wing: no wing with id or name {wing_ref[:80]!r}...", "wing")
     try:
         found = svc.store.wings.find(wing_ref)
     except ValueError as exc:  # a stored definition the current code cannot read

@@ -94,8 +94,13 @@ def install(app: FastAPI) -> None:
                                 headers=getattr(exc, "headers", None))
 
     from romams.jobs import BrokerUnavailable
+    from romams.persistence import DatabaseUnavailable
     from romams.services.errors import ServiceError, from_input_error
     from romams_core.errors import InputError
+
+    def retry_after(request: Request) -> dict[str, str]:
+        service = getattr(request.app.state, "service", None)
+        return {"Retry-After": str(getattr(getattr(service, "settings", None), "retry_after_s", 5))}
 
     @app.exception_handler(ServiceError)
     async def _service(request: Request, exc: ServiceError) -> JSONResponse:
@@ -109,7 +114,12 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(BrokerUnavailable)
     async def _broker(request: Request, exc: BrokerUnavailable) -> JSONResponse:
-        return problem_response(503, str(exc), instance=str(request.url.path), headers={"Retry-After": "5"})
+        return problem_response(503, str(exc), instance=str(request.url.path), headers=retry_after(request))
+
+    @app.exception_handler(DatabaseUnavailable)
+    async def _database(request: Request, exc: DatabaseUnavailable) -> JSONResponse:
+        log.warning("database unavailable on %s: %s", request.url.path, exc)
+        return problem_response(503, str(exc), instance=str(request.url.path), headers=retry_after(request))
 
     @app.exception_handler(Exception)
     async def _unexpected(request: Request, exc: Exception) -> JSONResponse:

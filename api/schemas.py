@@ -2,26 +2,41 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, FiniteFloat, model_validator
 
-from romams.persistence import JobStatus
+from romams.persistence import ID_MAX, ID_MIN, JobStatus
 
 Design = dict[str, FiniteFloat] | list[FiniteFloat]
 
 
-class _Strict(BaseModel):
-    """Unknown keys are errors (a typo must not be silently ignored)."""
+def _no_nul(value: str) -> str:
+    """A string without NUL characters (PostgreSQL text cannot hold them); nested JSON objects (a wing definition,
+    training options) are checked by the routes (api.deps.no_nul), which name the field inside."""
+    if "\x00" in value:
+        raise ValueError("must not contain NUL characters")
+    return value
 
-    model_config = ConfigDict(extra="forbid")
+
+#: text stored or looked up in the database: no NUL character
+Text = Annotated[str, AfterValidator(_no_nul)]
+#: id of a stored row: within the id columns' integer range (beyond it no row can exist, and PostgreSQL refuses it)
+RowId = Annotated[int, Field(ge=ID_MIN, le=ID_MAX)]
+
+
+class _Strict(BaseModel):
+    """Unknown keys are errors (a typo must not be silently ignored), and types are strict: no string is taken
+    for a number or a boolean (``"25"`` is not 25), no float for an integer; an integer is a valid float."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class WingCreate(_Strict):
     """A wing from a built-in template (optionally renamed) or from a full definition."""
 
-    template: str | None = Field(default=None, description='built-in template: "cropped-delta" or "goland"')
-    name: str | None = Field(default=None, min_length=1, max_length=200)
+    template: Text | None = Field(default=None, description='built-in template: "cropped-delta" or "goland"')
+    name: Text | None = Field(default=None, min_length=1, max_length=200)
     definition: dict[str, Any] | None = Field(default=None, description="WingDefinition.to_dict() JSON")
 
     @model_validator(mode="after")
@@ -71,7 +86,7 @@ class RomRequest(_Strict):
     solver: Literal["dlm", "uvlm", "tsd"] = "dlm"
     na: int = Field(default=8, ge=1, le=40)
     nb: int = Field(default=8, ge=1, le=40)
-    basis_id: int | None = None
+    basis_id: RowId | None = None
     options: dict[str, Any] = Field(default_factory=dict, description="extra keyword settings of the solver's "
                                     "training function (train_rfa_rom for dlm, train_rom for uvlm, "
                                     "train_tsd_rom for tsd)")
@@ -122,14 +137,14 @@ class FlutterRequest(FlightFields):
 
     design: Design | None = None
     modes: ModesIn | None = None
-    modes_id: int | None = None
+    modes_id: RowId | None = None
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
     method: Literal["rom-ams", "rom-pms"] = Field(
         default="rom-ams",
         description="rom-ams: the trained basis ROMs (fast, synchronous). rom-pms: the reference -- a ROM "
         "trained on this structure's own modes at every Mach with the trained ROMs' solver settings; "
         "a training-queue job (202 with job_id).")
-    basis_id: int | None = Field(default=None, description="basis to use (default: the wing's active basis)")
+    basis_id: RowId | None = Field(default=None, description="basis to use (default: the wing's active basis)")
     solver: Literal["dlm", "uvlm", "tsd"] | None = Field(default=None, description=SOLVER_CHOICE)
     store: bool = Field(default=True, description="store the evaluation (V-g data, plots)")
 
@@ -146,14 +161,14 @@ class BatchRequest(FlightFields):
     designs: list[Design] = Field(min_length=1)
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
     method: Literal["rom-ams"] = "rom-ams"
-    basis_id: int | None = Field(default=None, description="basis to use (default: the wing's active basis)")
+    basis_id: RowId | None = Field(default=None, description="basis to use (default: the wing's active basis)")
     solver: Literal["dlm", "uvlm", "tsd"] | None = Field(default=None, description=SOLVER_CHOICE)
 
 
 class ActiveBasis(_Strict):
     """The basis that evaluations of a wing use by default."""
 
-    basis_id: int
+    basis_id: RowId
 
 
 class MachResult(BaseModel):

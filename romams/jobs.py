@@ -4,7 +4,9 @@ The job row is the source of truth. Submitting commits the row first and sends t
 after (with the row id as the task id). A task runs inside :func:`run_job`: a guarded start that
 counts deliveries (over the cap the job fails with the reason), a heartbeat thread that touches the
 row while the task is alive, a progress callback that raises ``Cancelled`` once the job was cancelled,
-and a guarded final transition. :func:`sweep_stale` re-sends running jobs whose worker died.
+and a guarded final transition. A job whose result is stored (a basis, a ROM, an evaluation) stores it and
+succeeds in one guarded transaction (:func:`store_and_finish`). :func:`sweep_stale` re-sends running jobs whose
+worker died.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from romams.persistence import FINAL, JobStatus, Store
+from romams.persistence import FINAL, JobStatus, Store, UnitOfWork
 from romams.services.errors import error_dict
 from romams.services.queue import FINALIZE_FOR_KIND, TASK_FOR_KIND
 
@@ -159,6 +161,18 @@ def progress_callback(store: Store, job_id: str, lo: float = 0.0, hi: float = 1.
             store.jobs.progress(job_id, lo + (hi - lo) * float(fraction), message)
 
     return report
+
+
+def store_and_finish(store: Store, job_id: str, save: Callable[[UnitOfWork], dict[str, Any]]) -> dict[str, Any]:
+    """Store what a job produced and mark it succeeded in one transaction, guarded: ``save(uow)`` writes the
+    result rows and returns the job's result; the job then moves to ``succeeded`` only if it is still queued or
+    running. If it is not (cancelled meanwhile, or finished by another delivery), the transaction is rolled back
+    and ``Cancelled`` is raised: a cancelled job stores nothing, and a stored model belongs to a succeeded job."""
+    with store.unit_of_work() as uow:
+        result = save(uow)
+        if not uow.jobs.finish(job_id, JobStatus.SUCCEEDED, result=result, message="done"):
+            raise Cancelled(f"job {job_id} is {uow.jobs.status(job_id)}: its result was not stored")
+    return result
 
 
 def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressFn], Any], *, max_deliveries: int,

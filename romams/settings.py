@@ -43,7 +43,16 @@ class Settings(BaseSettings):
     evaluation_time_limit_s: int = Field(default=600, ge=1, description="hard time limit of an evaluation task")
     cache_size: int = Field(default=32, ge=1, description="bases/ROMs kept in a worker's memory")
     result_cache_size: int = Field(default=20000, ge=0, description="flutter results kept in a worker's memory")
-    upload_max_bytes: int = Field(default=200_000_000, ge=1, description="largest accepted Nastran upload")
+    upload_max_bytes: int = Field(default=200_000_000, ge=1, description="largest accepted file of a modes upload "
+                                  "(POST /modes); the whole multipart body may hold two such files")
+    upload_inflated_max_bytes: int = Field(
+        default=100_000_000, ge=1, description="largest total size of an NPZ upload's arrays once decompressed, "
+        "checked from the zip directory and the .npy headers before anything is inflated")
+    request_max_bytes: int = Field(default=16 * 1024 * 1024, ge=1024, description="largest request body of every "
+                                   "other endpoint (413 before the body is read)")
+    retry_after_s: int = Field(default=5, ge=1, description="Retry-After of a 503 (database or broker unavailable)")
+    db_connect_timeout_s: int = Field(default=5, ge=1, description="PostgreSQL connect timeout: during an outage "
+                                      "a request fails with 503 after at most this long")
     heartbeat_s: float = Field(default=5.0, gt=0, description="how often a running task touches its job row")
     job_stale_s: float = Field(default=60.0, gt=0, description="a running job untouched this long is re-sent")
     broker_poll_s: float = Field(default=0.05, gt=0, description="poll period of the server-less SQLite broker")

@@ -170,20 +170,74 @@ def load_modes_json(src: PathLike | Mapping[str, Any]) -> ExternalModes:
     return modes_from_dict(data, path.name)
 
 
-def load_modes_npz(path: PathLike) -> ExternalModes:
-    """Read external modes from an NPZ (nodes [P, 3], shapes [P, k], frequencies_hz [k], optional extras)."""
+#: the NPZ members :func:`load_modes_npz` reads (any other member is ignored, never decompressed)
+NPZ_KEYS = ("nodes", "shapes", "frequencies_hz", "generalized_masses", "mass_kg")
+#: default bound of :func:`load_modes_npz` on the arrays' total size once decompressed (bytes)
+NPZ_MAX_BYTES = 100_000_000
+_NPZ_MAX_MEMBERS = 64
+
+
+def _npz_member_sizes(path: Path, max_bytes: int) -> None:
+    """Check an NPZ before anything is decompressed: few members, and the declared size of each member read
+    (zip directory) and of its array (.npy header: shape x itemsize, no object dtype) within ``max_bytes`` in all.
+
+    Only the headers are inflated (a few hundred bytes each), so a small archive that would inflate to gigabytes
+    is refused without the memory; a member inflating past its declared size fails the zip's own check."""
+    try:
+        with zipfile.ZipFile(path) as zf:
+            infos = zf.infolist()
+            if len(infos) > _NPZ_MAX_MEMBERS:
+                raise InputError("npz", f"{path.name} has {len(infos)} members (at most {_NPZ_MAX_MEMBERS})")
+            total = 0
+            for info in infos:
+                key = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+                if key not in NPZ_KEYS:
+                    continue
+                total += info.file_size
+                if total > max_bytes:
+                    raise InputError(key, f"declares {info.file_size} bytes uncompressed; the arrays of an NPZ "
+                                          f"may hold at most {max_bytes} bytes in all")
+                with zf.open(info) as f:
+                    version = np.lib.format.read_magic(f)
+                    if version == (1, 0):
+                        shape, _, dtype = np.lib.format.read_array_header_1_0(f)
+                    elif version == (2, 0):
+                        shape, _, dtype = np.lib.format.read_array_header_2_0(f)
+                    else:
+                        raise InputError(key, f"unsupported .npy format version {version}")
+                if dtype.hasobject:
+                    raise InputError(key, "cannot be read without pickle (object arrays are refused)")
+                size = math.prod(int(n) for n in shape) * int(dtype.itemsize)
+                if size > max_bytes or size > info.file_size:
+                    raise InputError(key, f"array {tuple(shape)} of {dtype} ({size} bytes) exceeds the limit of "
+                                          f"{max_bytes} bytes or its member's declared size")
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError("npz", f"{path.name} is not a readable NPZ archive ({exc})") from None
+
+
+def load_modes_npz(path: PathLike, max_bytes: int | None = NPZ_MAX_BYTES) -> ExternalModes:
+    """Read external modes from an NPZ (nodes [P, 3], shapes [P, k], frequencies_hz [k], optional extras).
+
+    ``max_bytes`` bounds the arrays' total size once decompressed; it is checked from the zip directory and the
+    .npy headers before any array is inflated (None: no bound). Pickle is never allowed."""
     path = Path(path)
     if not path.is_file() or not zipfile.is_zipfile(path):
         raise InputError("npz", f"{path.name} is not a readable NPZ archive")
+    if max_bytes is not None:
+        _npz_member_sizes(path, int(max_bytes))
     try:
         with np.load(path, allow_pickle=False) as z:
             data: dict[str, Any] = {}
             for key in z.files:
+                if key not in NPZ_KEYS:
+                    continue
                 try:
                     data[key] = z[key]
                 except ValueError as exc:  # object arrays need pickle: refused
                     raise InputError(key, f"cannot be read without pickle ({exc})") from None
-    except (OSError, EOFError) as exc:
+    except (OSError, EOFError, zipfile.BadZipFile) as exc:
         raise InputError("npz", f"{path.name} is not a readable NPZ archive ({exc})") from None
     for key in ("generalized_masses", "mass_kg"):
         if key in data and data[key].size == 0:

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from romams.jobs import JobFailed, Outcome, ProgressFn
-from romams.persistence import JobStatus
+from romams.jobs import JobFailed, Outcome, ProgressFn, store_and_finish
+from romams.persistence import JobStatus, UnitOfWork
 from romams.services.evaluation import (
     Models,
     evaluate_structure_summary,
@@ -119,11 +119,16 @@ def flutter_pms_job(job_id: str) -> None:
         p = job["params"]
         summary, result = evaluate_pms(job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"),
                                        p.get("modes_id"), progress, condition_of(p))
-        if p.get("store", True):
-            summary["evaluation_id"] = store().evaluations.save(
+        if not p.get("store", True):
+            return summary
+
+        def save(uow: UnitOfWork) -> dict[str, Any]:
+            summary["evaluation_id"] = uow.evaluations.save(
                 job["wing_id"], result, summary=summary, request=p.get("request") or {}, basis_id=p["basis_id"],
                 method="rom-pms")
-        return summary
+            return summary
+
+        return store_and_finish(store(), job_id, save)  # stored only while the job is not cancelled
 
     run(job_id, body)
 

@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from romams.jobs import ProgressFn, send
-from romams.persistence import JobStatus
+from romams.jobs import ProgressFn, send, store_and_finish
+from romams.persistence import JobStatus, UnitOfWork
 from romams.pipeline import own_mode_basis
 from romams.services.models import activate_first_basis
 from worker.celery_app import app
@@ -38,12 +38,14 @@ def basis_job(job_id: str) -> None:
         s = store()
         if not wing.design_variables:  # a fixed structure (the Goland wing): its own modes are its basis
             basis = own_mode_basis(wing, int(p["modes"]))
-            with s.unit_of_work() as uow:
+
+            def save_own(uow: UnitOfWork) -> dict[str, Any]:
                 bid = uow.bases.save(job["wing_id"], basis, p, job_id=job_id)
                 active = activate_first_basis(uow, int(job["wing_id"]), bid)
-            s.jobs.finish(job_id, JobStatus.SUCCEEDED, message="done", result={
-                "basis_id": bid, "active": active, "n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac),
-                "capped": False, "own_modes": True})
+                return {"basis_id": bid, "active": active, "n_basis": int(basis.n_basis),
+                        "min_mac": float(basis.min_mac), "capped": False, "own_modes": True}
+
+            store_and_finish(s, job_id, save_own)  # stored, activated and succeeded together, unless cancelled
             return
         designs = sample_designs(wing, int(p["samples"]), seed=int(p["seed"]))
         with s.unit_of_work() as uow:  # the chunk rows are committed together, before any message is sent
@@ -114,13 +116,17 @@ def basis_finalize(job_id: str) -> None:
         basis = build_basis(snaps, mac_threshold=float(p["mac_threshold"]), max_basis=int(p["max_basis"]),
                             n_modes=int(p["modes"]), designs=designs, design_names=list(wing.variable_names),
                             wing_name=wing.name)
-        with s.unit_of_work() as uow:  # stored and (if first) activated together
+        def save(uow: UnitOfWork) -> dict[str, Any]:
             bid = uow.bases.save(job["wing_id"], basis, p, job_id=job_id)
             active = activate_first_basis(uow, int(job["wing_id"]), bid)
-        return {"basis_id": bid, "active": active, "n_basis": int(basis.n_basis), "min_mac": float(basis.min_mac),
-                "capped": bool(basis.capped), "min_mac_by_m": basis.min_mac_by_m.tolist()}
+            return {"basis_id": bid, "active": active, "n_basis": int(basis.n_basis),
+                    "min_mac": float(basis.min_mac), "capped": bool(basis.capped),
+                    "min_mac_by_m": basis.min_mac_by_m.tolist()}
 
-    run(job_id, body, count_delivery=False)
+        # stored, (if first) activated and the job succeeded in one transaction, unless it was cancelled
+        return store_and_finish(s, job_id, save)
+
+    run(job_id, body, count_delivery=False, finish=False)
 
 
 # ---- training ------------------------------------------------------------------------------------
@@ -135,8 +141,13 @@ def training_job(job_id: str) -> None:
         mesh = load_mesh(wing_id)
         progress(0.0, f"training M = {p['mach']:.3f} with {p['solver']} on {basis.n_basis} basis shapes")
         rom = train_model(mesh, basis.shapes, float(p["mach"]), p["identity"], "training", progress)
-        rid = store().roms.save(wing_id, basis_id, rom, p["identity"], job_id=job_id)
         nrmse = np.atleast_1d(np.asarray(getattr(rom, "validation_nrmse", np.nan), dtype=float))
-        return {"rom_id": rid, "mach": float(p["mach"]), "validation_nrmse": nrmse.tolist()}
 
-    run(job_id, body)
+        def save(uow: UnitOfWork) -> dict[str, Any]:
+            rid = uow.roms.save(wing_id, basis_id, rom, p["identity"], job_id=job_id)
+            return {"rom_id": rid, "mach": float(p["mach"]), "validation_nrmse": nrmse.tolist()}
+
+        # the ROM row and the job's success in one transaction, only while the job is not cancelled
+        return store_and_finish(store(), job_id, save)
+
+    run(job_id, body, finish=False)

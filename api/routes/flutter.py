@@ -14,7 +14,7 @@ from api.deps import Service, require_key, service, wing_or_404
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import BatchRequest, FlutterRequest, FlutterSummary
 from romams import jobs
-from romams.persistence import FINAL, JobStatus
+from romams.persistence import FINAL, ID_MAX, ID_MIN, JobStatus
 from romams.serialize import to_jsonable
 from romams.services.errors import ServiceError
 from romams.services.evaluation import evaluation_key
@@ -196,7 +196,8 @@ def _evaluation_or_404(svc: Service, evaluation_id: int, full: bool = False) -> 
 
 
 @router.get("/evaluations")
-def list_evaluations(wing_id: int | None = None, limit: int = Query(default=20, ge=1, le=500),
+def list_evaluations(wing_id: int | None = Query(default=None, ge=ID_MIN, le=ID_MAX),
+                     limit: int = Query(default=20, ge=1, le=500),
                      svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Newest stored evaluations (summaries)."""
     return svc.store.evaluations.recent(wing_id, limit)

@@ -6,7 +6,7 @@ from typing import Any
 
 from fastapi import APIRouter, Depends, Query
 
-from api.deps import Service, require_key, service
+from api.deps import Service, no_nul, require_key, service
 from api.problems import Problem
 from romams.persistence import JobStatus
 
@@ -14,7 +14,8 @@ router = APIRouter(tags=["jobs"])
 
 
 def job_or_404(svc: Service, job_id: str) -> dict[str, Any]:
-    """Job dict or a 404 problem naming the job id."""
+    """Job dict or a 404 problem naming the job id (422 for a NUL character)."""
+    no_nul(job_id, "job_id")
     job = svc.store.jobs.get(job_id) if len(job_id) <= 64 else None
     if job is None:
         raise Problem(404, f"job_id: no job {job_id!r}", "job_id")
@@ -26,6 +27,7 @@ def list_jobs(status: JobStatus | None = None,
               kind: str | None = Query(default=None, max_length=40), limit: int = Query(default=50, ge=1, le=1000),
               include_children: bool = False, svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Newest jobs first (fan-out chunk jobs only with include_children=true)."""
+    no_nul(kind, "kind")
     return svc.store.jobs.recent(limit=limit, status=status, kind=kind, top_level=not include_children)
 
 

@@ -14,14 +14,22 @@ from api.problems import Problem, from_value_error, invalid
 router = APIRouter(tags=["modes"])
 
 
-async def _save(upload: UploadFile, folder: Path, name: str, limit: int) -> Path:
-    """Copy an upload to ``folder/name`` (413 over ``limit`` bytes)."""
-    data = await upload.read(limit + 1)
-    if len(data) > limit:
-        raise Problem(413, f"{name}: larger than {limit} bytes", name)
+async def _save(upload: UploadFile, folder: Path, name: str, limit: int, field: str) -> Path:
+    """Copy an upload to ``folder/name`` in 1 MiB pieces (413 naming ``field`` past ``limit`` bytes)."""
     path = folder / name
-    path.write_bytes(data)
+    size = 0
+    with open(path, "wb") as out:
+        while piece := await upload.read(1 << 20):
+            size += len(piece)
+            if size > limit:
+                raise Problem(413, f"{field}: larger than {limit} bytes (upload_max_bytes)", field)
+            out.write(piece)
     return path
+
+
+def _filename(upload: UploadFile) -> str:
+    """The client's file name as stored: no NUL character, at most 190 characters (two fit the column)."""
+    return (upload.filename or "").replace("\x00", "")[:190]
 
 
 @router.post("/modes", status_code=201, dependencies=[Depends(require_key)])
@@ -38,8 +46,8 @@ async def upload_modes(bdf: UploadFile | None = File(default=None), op2: UploadF
             if bdf is not None or op2 is not None:
                 if bdf is None or op2 is None:
                     raise invalid("bdf" if bdf is None else "op2", "a Nastran upload needs both 'bdf' and 'op2' files")
-                b = await _save(bdf, folder, "model.bdf", limit)
-                o = await _save(op2, folder, "model.op2", limit)
+                b = await _save(bdf, folder, "model.bdf", limit, "bdf")
+                o = await _save(op2, folder, "model.op2", limit, "op2")
                 try:
                     modes = modes_io.load_modes_nastran(b, o)
                 except ImportError as exc:
@@ -49,16 +57,17 @@ async def upload_modes(bdf: UploadFile | None = File(default=None), op2: UploadF
                     raise
                 except Exception as exc:  # noqa: BLE001 - pyNastran's own errors on unreadable files
                     raise invalid("bdf", f"could not read the BDF/OP2 pair ({type(exc).__name__}: {exc})") from exc
-                source, name = "nastran", f"{bdf.filename} + {op2.filename}"
+                source, name = "nastran", f"{_filename(bdf)} + {_filename(op2)}"
             elif file is not None:
                 fname = (file.filename or "").lower()
                 if fname.endswith(".json"):
-                    modes = modes_io.load_modes_json(await _save(file, folder, "modes.json", limit))
-                elif fname.endswith(".npz"):
-                    modes = modes_io.load_modes_npz(await _save(file, folder, "modes.npz", limit))
+                    modes = modes_io.load_modes_json(await _save(file, folder, "modes.json", limit, "file"))
+                elif fname.endswith(".npz"):  # sizes checked from the zip directory before anything is inflated
+                    modes = modes_io.load_modes_npz(await _save(file, folder, "modes.npz", limit, "file"),
+                                                    max_bytes=svc.settings.upload_inflated_max_bytes)
                 else:
                     raise invalid("file", "must be a .json or .npz file")
-                source, name = fname.rsplit(".", 1)[-1], file.filename or ""
+                source, name = fname.rsplit(".", 1)[-1], _filename(file)
             else:
                 raise invalid("file", "give 'file' (.json/.npz) or both 'bdf' and 'op2'")
         except ValueError as exc:

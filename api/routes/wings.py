@@ -6,13 +6,13 @@ import dataclasses
 import math
 from typing import Any, Literal
 
-from fastapi import APIRouter, Depends, Response
+from fastapi import APIRouter, Depends, Query, Response
 
-from api.deps import Service, require_key, service, wing_or_404
+from api.deps import WING_NAME_MAX, Service, no_nul, require_key, service, wing_or_404
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import ActiveBasis, BasisRequest, Created, JobRef, RomRequest, WingCreate
 from romams.jobs import submit
-from romams.persistence import content_hash, rom_key
+from romams.persistence import ID_MAX, ID_MIN, content_hash, rom_key
 from romams.services.errors import ServiceError
 from romams.services.models import resolve_basis_id
 from romams.services.training import allowed_options, available, check_options, rom_identity
@@ -38,6 +38,7 @@ def create_wing(body: WingCreate, svc: Service = Depends(service)) -> dict[str, 
     """Create a wing from a template ({"template": "cropped-delta", "name": ...}) or a full definition."""
     from romams_core import wing as wing_mod
 
+    no_nul(body.definition, "definition")
     try:
         if body.template is not None:
             wing = wing_mod.template(body.template)
@@ -52,6 +53,8 @@ def create_wing(body: WingCreate, svc: Service = Depends(service)) -> dict[str, 
             wing = dataclasses.replace(wing, name=body.name)
         except ValueError as exc:
             raise from_value_error(exc) from exc
+    if len(wing.name) > WING_NAME_MAX:
+        raise invalid("definition.name", f"at most {WING_NAME_MAX} characters, got {len(wing.name)}")
     try:
         wid = svc.store.wings.create(wing, body.name)
     except ValueError as exc:
@@ -149,6 +152,7 @@ def _train_options(solver: str, options: dict[str, Any], n_shapes: int | None = 
 def start_training(wing: str, body: RomRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Train ROMs: one job per Mach; an identical request returns the existing model or the running job."""
     wid, wdef = wing_or_404(svc, wing)
+    no_nul(body.options, "options")
     basis_id = resolve_basis_id(svc.store, wid, body.basis_id)
     bad = [m for m in ([body.mach] if body.mach is not None else body.machs or []) if m >= 1.0]
     if bad:
@@ -196,7 +200,8 @@ def start_training(wing: str, body: RomRequest, response: Response, svc: Service
 
 
 @router.get("/wings/{wing}/roms")
-def list_roms(wing: str, basis_id: int | None = None, svc: Service = Depends(service)) -> list[dict[str, Any]]:
+def list_roms(wing: str, basis_id: int | None = Query(default=None, ge=ID_MIN, le=ID_MAX),
+              svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Trained ROMs of a wing: Mach, solver settings, validation fit error."""
     wid, _ = wing_or_404(svc, wing)
     return svc.store.roms.of_wing(wid, basis_id)

@@ -16,9 +16,11 @@ from __future__ import annotations
 
 from romams.persistence.codec import canonical_json, content_hash, rom_key
 from romams.persistence.engine import dispose_engines, head_revision, schema_revision, upgrade
+from romams.persistence.errors import ID_MAX, ID_MIN, DatabaseUnavailable, InvalidValue, id_in_range
 from romams.persistence.status import ACTIVE, FINAL, JobStatus
 from romams.persistence.store import Store, open_store
 from romams.persistence.unit_of_work import UnitOfWork
 
-__all__ = ["ACTIVE", "FINAL", "JobStatus", "Store", "UnitOfWork", "canonical_json", "content_hash",
-           "dispose_engines", "head_revision", "open_store", "rom_key", "schema_revision", "upgrade"]
+__all__ = ["ACTIVE", "FINAL", "ID_MAX", "ID_MIN", "DatabaseUnavailable", "InvalidValue", "JobStatus", "Store",
+           "UnitOfWork", "canonical_json", "content_hash", "dispose_engines", "head_revision", "id_in_range",
+           "open_store", "rom_key", "schema_revision", "upgrade"]

@@ -23,8 +23,10 @@ def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
     cur.close()
 
 
-def get_engine(url: str) -> Engine:
-    """Process-wide engine for ``url`` (created once)."""
+def get_engine(url: str, connect_timeout_s: float | None = None) -> Engine:
+    """Process-wide engine for ``url`` (created once). Pooled server connections are pinged before use
+    (``pool_pre_ping``), so a connection the server dropped (restart, outage) is replaced instead of failing the
+    request; PostgreSQL connects with ``connect_timeout_s`` (an unreachable server fails fast)."""
     with _LOCK:
         eng = _ENGINES.get(url)
         if eng is None:
@@ -32,7 +34,9 @@ def get_engine(url: str) -> Engine:
                 eng = create_engine(url, connect_args={"timeout": 60, "check_same_thread": False})
                 event.listen(eng, "connect", _sqlite_pragmas)
             else:
-                eng = create_engine(url, pool_pre_ping=True, pool_size=5, max_overflow=10)
+                args = {"connect_timeout": max(1, int(connect_timeout_s))} if connect_timeout_s and url.startswith(
+                    "postgresql") else {}
+                eng = create_engine(url, pool_pre_ping=True, pool_size=5, max_overflow=10, connect_args=args)
             _ENGINES[url] = eng
         return eng
 

@@ -9,6 +9,7 @@ from sqlalchemy import select
 
 from romams import serialize
 from romams.persistence.codec import iso
+from romams.persistence.errors import id_in_range
 from romams.persistence.models import Evaluation
 from romams.persistence.repository import Repository
 
@@ -27,7 +28,7 @@ class EvaluationRepository(Repository):
 
     def get(self, evaluation_id: int, full: bool = False) -> dict[str, Any] | None:
         """Evaluation row as a dict (with the deserialized result under "result" when ``full``)."""
-        r = self._session.get(Evaluation, int(evaluation_id))
+        r = self._session.get(Evaluation, int(evaluation_id)) if id_in_range(evaluation_id) else None
         if r is None:
             return None
         out = {"id": r.id, "wing_id": r.wing_id, "basis_id": r.basis_id, "method": r.method, "request": r.request,

@@ -120,6 +120,9 @@ class JobRepository(Repository):
             changes["status"] = JobStatus(changes["status"]).value
         if "result" in changes and changes["result"] is not None:
             changes["result"] = serialize.to_jsonable(changes["result"])
+        for text_col in ("message", "error"):  # texts may quote an input; PostgreSQL text cannot hold NUL
+            if isinstance(changes.get(text_col), str):
+                changes[text_col] = changes[text_col].replace("\x00", "\\0")
         changes["updated_at"] = utcnow()
         q = update(Job).where(Job.id == job_id)
         if expect is not None:

@@ -15,6 +15,7 @@ from sqlalchemy.orm import sessionmaker
 from romams.persistence.artifacts import ArtifactRepository
 from romams.persistence.bases import BasisRepository
 from romams.persistence.engine import get_engine, head_revision, schema_revision, sqlite_path, upgrade
+from romams.persistence.errors import translate
 from romams.persistence.evaluations import EvaluationRepository
 from romams.persistence.jobs import JobRepository
 from romams.persistence.modes import ModesRepository
@@ -56,8 +57,14 @@ class Store:
 
     def ping(self) -> str:
         """Run ``SELECT 1``; the database dialect name (raises when the database is unreachable)."""
-        with self.engine.connect() as conn:
-            conn.execute(text("SELECT 1"))
+        try:
+            with self.engine.connect() as conn:
+                conn.execute(text("SELECT 1"))
+        except Exception as exc:
+            mapped = translate(exc)
+            if mapped is None:
+                raise
+            raise mapped from exc
         return self.engine.dialect.name
 
     # one-call repositories: each method call is its own unit of work
@@ -100,7 +107,7 @@ def open_store(settings: Settings | None = None, *, migrate: bool | None = None)
         path = sqlite_path(url)
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
-    engine = get_engine(url)
+    engine = get_engine(url, connect_timeout_s=settings.db_connect_timeout_s)
     if migrate if migrate is not None else sqlite:
         db_file = sqlite_path(url) if sqlite else None  # a server database locks in the data directory
         lock_path = (db_file or settings.data_dir / "romams.db").with_suffix(".migrate.lock")

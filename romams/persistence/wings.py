@@ -8,6 +8,7 @@ from sqlalchemy import select, update
 from sqlalchemy.exc import IntegrityError
 
 from romams.persistence.codec import iso, wing_from_json, wing_to_json
+from romams.persistence.errors import id_in_range
 from romams.persistence.models import BasisRow, Wing
 from romams.persistence.repository import Repository
 
@@ -70,8 +71,9 @@ class WingRepository(Repository):
     def find(self, name_or_id: int | str) -> tuple[int, Any] | None:
         """(id, WingDefinition) by numeric id or by name, or None."""
         row = None
-        if isinstance(name_or_id, int) or (isinstance(name_or_id, str) and name_or_id.isdigit()):
-            row = self._session.get(Wing, int(name_or_id))
+        if isinstance(name_or_id, int) or (isinstance(name_or_id, str) and name_or_id.isascii()
+                                           and name_or_id.isdigit() and len(name_or_id) <= 20):
+            row = self._session.get(Wing, int(name_or_id)) if id_in_range(name_or_id) else None
         if row is None and isinstance(name_or_id, str):
             row = self._session.scalar(select(Wing).where(Wing.name == name_or_id))
         if row is None:
@@ -80,7 +82,7 @@ class WingRepository(Repository):
 
     def info(self, wing_id: int) -> dict[str, Any] | None:
         """Row view of a wing: id, name, created_at and the stored definition JSON."""
-        row = self._session.get(Wing, int(wing_id))
+        row = self._session.get(Wing, int(wing_id)) if id_in_range(wing_id) else None
         if row is None:
             return None
         return {"id": row.id, "name": row.name, "created_at": iso(row.created_at), "definition": row.definition}

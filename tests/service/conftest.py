@@ -139,3 +139,29 @@ def redis_url() -> Iterator[str]:
         yield f"{REDIS_URL}/{db}"
     finally:
         r.flushdb()
+
+
+class SentTasks:
+    """Stand-in for the Celery app of an API under test: records the tasks it sends (no broker, no worker)."""
+
+    def __init__(self) -> None:
+        self.sent: list[tuple[str, list, str | None]] = []
+
+    def send_task(self, name: str, args: list | None = None, task_id: str | None = None, **_: object) -> None:
+        self.sent.append((name, list(args or []), task_id))
+
+
+#: parameters of a fixture that runs on SQLite and (services) on PostgreSQL; see backend_settings
+BACKENDS = ["sqlite", pytest.param("postgresql", marks=pytest.mark.services)]
+
+
+def backend_settings(request, tmp_path: Path, **kw: object):
+    """Settings on SQLite, or (``request.param == "postgresql"``) on a fresh PostgreSQL database at Alembic head."""
+    from romams.persistence import open_store
+    from romams.settings import Settings
+
+    if request.param == "postgresql":
+        settings = Settings(data_dir=tmp_path / "data", database_url=request.getfixturevalue("pg_url"), **kw)
+        open_store(settings, migrate=True)
+        return settings
+    return Settings(data_dir=tmp_path / "data", **kw)

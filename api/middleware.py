@@ -1,0 +1,146 @@
+"""ASGI middleware of the API: security headers on every response, and the checks made before a body is read.
+
+``SecurityHeaders`` wraps the whole application (also the 500 page of Starlette's error middleware):
+Content-Security-Policy, X-Frame-Options, X-Content-Type-Options and Referrer-Policy on every response.
+``RequestGuard`` runs before a route reads its body: the API key of a mutating request under ``/api/`` (so that a
+large body without a valid key is refused unread), and the body size (413 on the declared Content-Length before
+anything is read, and while a body without one streams in). Both are plain ASGI (no buffering of bodies).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from starlette.datastructures import Headers, MutableHeaders
+from starlette.exceptions import HTTPException
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from api.problems import problem_response
+
+#: the dashboard and every API response: own scripts, styles and images only (the dashboard has no inline script
+#: or style; its progress bars are sized through the CSSOM), fetches to this origin, no framing
+CSP = ("default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+       "base-uri 'none'; form-action 'none'; frame-ancestors 'none'")
+#: the interactive OpenAPI pages (/docs, /redoc): FastAPI serves Swagger UI / ReDoc from the jsDelivr CDN with an
+#: inline start-up script
+DOCS_CSP = ("default-src 'none'; script-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net; "
+            "style-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net https://fonts.googleapis.com; "
+            "font-src https://fonts.gstatic.com; img-src 'self' data: https:; connect-src 'self'; worker-src blob:; "
+            "base-uri 'none'; form-action 'none'; frame-ancestors 'none'")
+HEADERS = {"X-Frame-Options": "DENY", "X-Content-Type-Options": "nosniff", "Referrer-Policy": "no-referrer"}
+DOCS_PREFIXES = ("/docs", "/redoc")
+MUTATING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
+UPLOAD_PATHS = frozenset({"/api/v1/modes"})
+
+
+class SecurityHeaders:
+    """Adds the security headers to every HTTP response (a header the route set itself is kept)."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        csp = DOCS_CSP if str(scope.get("path", "")).startswith(DOCS_PREFIXES) else CSP
+
+        async def send_with_headers(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                headers = MutableHeaders(scope=message)
+                headers.setdefault("Content-Security-Policy", csp)
+                for name, value in HEADERS.items():
+                    headers.setdefault(name, value)
+            await send(message)
+
+        await self.app(scope, receive, send_with_headers)
+
+
+class BodyTooLarge(HTTPException):
+    """Raised while a request body streams in past its limit (FastAPI passes HTTPExceptions through)."""
+
+    def __init__(self, limit: int) -> None:
+        super().__init__(413, f"body: larger than {limit} bytes")
+        self.limit = limit
+
+
+class RequestGuard:
+    """API key of mutating requests and request body size, both checked before the body is read.
+
+    ``settings``: the service settings (``api_keys``, ``request_max_bytes``, ``upload_max_bytes``)."""
+
+    def __init__(self, app: ASGIApp, settings: Any) -> None:
+        self.app = app
+        self.settings = settings
+
+    def limit(self, path: str) -> int:
+        """Largest body of a request to ``path`` (the modes upload: two files and the multipart framing)."""
+        if path in UPLOAD_PATHS:
+            return 2 * int(self.settings.upload_max_bytes) + 1024 * 1024
+        return int(self.settings.request_max_bytes)
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        from api.deps import key_problem
+
+        path = str(scope.get("path", ""))
+        headers = Headers(scope=scope)
+        if scope.get("method") in MUTATING and path.startswith("/api/") and self.settings.api_keys:
+            problem = key_problem(self.settings.api_keys, headers.get("authorization", ""))
+            if problem is not None:
+                await problem_response(problem.status, problem.detail, title=problem.title, field=problem.field,
+                                       instance=path, headers=problem.headers)(scope, receive, send)
+                return
+        limit = self.limit(path)
+        declared = headers.get("content-length")
+        if declared is not None:
+            try:
+                size = int(declared)
+            except ValueError:
+                size = -1
+            if size < 0:
+                await problem_response(400, "content-length: not a byte count", field="content-length",
+                                       instance=path)(scope, receive, send)
+                return
+            if size > limit:
+                await self._too_large(scope, receive, send, limit)
+                return
+        state = {"received": 0, "exceeded": False, "started": False, "replaced": False}
+
+        async def receive_limited() -> Message:
+            message = await receive()
+            if message["type"] == "http.request":
+                state["received"] += len(message.get("body", b""))
+                if state["received"] > limit:
+                    state["exceeded"] = True
+                    raise BodyTooLarge(limit)
+            return message
+
+        async def send_checked(message: Message) -> None:
+            if state["replaced"]:
+                return  # the app's answer to the aborted read, replaced by the 413
+            if message["type"] == "http.response.start":
+                if state["exceeded"]:  # whatever the app made of the aborted read (e.g. a 400): a 413
+                    state["replaced"] = True
+                    await self._too_large(scope, receive, send, limit)
+                    return
+                state["started"] = True
+            await send(message)
+
+        try:
+            await self.app(scope, receive_limited, send_checked)
+        except BodyTooLarge:
+            if state["started"]:
+                raise
+            if not state["replaced"]:
+                await self._too_large(scope, receive, send, limit)
+
+    @staticmethod
+    async def _too_large(scope: Scope, receive: Receive, send: Send, limit: int) -> None:
+        """413 problem naming the body and the limit."""
+        detail = (f"body: larger than {limit} bytes (the request body limit; request_max_bytes, or upload_max_bytes "
+                  f"per file of a modes upload)")
+        await problem_response(413, detail, field="body", instance=str(scope.get("path", "")),
+                               headers={"Connection": "close"})(scope, receive, send)
