@@ -188,11 +188,14 @@ def main() -> None:
     ap.add_argument("--machs", default=",".join(str(m) for m in AGARD_EXPERIMENT), help="AGARD Mach numbers")
     ap.add_argument("--grid-scale", type=float, default=1.0)
     ap.add_argument("--study-mach", type=float, default=0.960)
+    ap.add_argument("--nrmse-tol", type=float, default=None, help="TSD ARX validation tolerance (default 0.05)")
     ap.add_argument("--processes", type=int, default=1)
     ap.add_argument("--plot", default=None, help="directory for agard_flutter_tsd.png")
     a = ap.parse_args()
     cases = set(a.cases.split(","))
     base = {} if a.grid_scale == 1.0 else {"grid_scale": a.grid_scale}
+    if a.nrmse_tol is not None:
+        base["nrmse_tol"] = a.nrmse_tol
     out: dict[str, Any] = {"grid_scale": a.grid_scale}
     t0 = time.perf_counter()
     if "agard" in cases:
