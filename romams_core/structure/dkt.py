@@ -100,8 +100,9 @@ _DN_GAUSS = np.stack([quadratic_dn(g) for g in _GAUSS])  # [3, 6, 3]
 DN_MIDSIDES_T = _DN_GAUSS.transpose(0, 2, 1)  # [3 gauss, 3 L, 6 nodes]
 
 
-def curvature_matrices(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Curvature-displacement matrices B [E, 3 gauss, 3, 9] (1/m) at the side midpoints and areas [E] (m^2)."""
+def quadratic_gradient_operator(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Symmetric-gradient operator [E, 3 gauss, 3, 12] (1/m) of a 6-node quadratic 2-component field (nodes x, y
+    interleaved) at the side midpoints: rows (d/dx of x, d/dy of y, d/dy of x + d/dx of y); and areas [E] (m^2)."""
     area, dldx, dldy = triangle_geometry(xy)
     nx = np.matmul(dldx, DN_MIDSIDES_T).transpose(1, 0, 2)  # [E, 3 gauss, 6 nodes]
     ny = np.matmul(dldy, DN_MIDSIDES_T).transpose(1, 0, 2)
@@ -110,8 +111,13 @@ def curvature_matrices(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     bq[:, :, 1, 1::2] = ny
     bq[:, :, 2, 0::2] = ny
     bq[:, :, 2, 1::2] = nx
-    b = np.matmul(bq, _constraint_matrix(xy)[:, None])
-    return b, area
+    return bq, area
+
+
+def curvature_matrices(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Curvature-displacement matrices B [E, 3 gauss, 3, 9] (1/m) at the side midpoints and areas [E] (m^2)."""
+    bq, area = quadratic_gradient_operator(xy)
+    return np.matmul(bq, _constraint_matrix(xy)[:, None]), area
 
 
 def dkt_stiffness(xy: np.ndarray, d: np.ndarray) -> np.ndarray:

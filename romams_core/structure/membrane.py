@@ -30,7 +30,7 @@ from itertools import product
 
 import numpy as np
 
-from romams_core.structure.dkt import DN_MIDSIDES_T, triangle_geometry
+from romams_core.structure.dkt import quadratic_gradient_operator, triangle_geometry
 
 _SIDES = ((0, 1), (1, 2), (2, 0))  # midside nodes 4, 5, 6, as in the DKT quadratic triangle
 
@@ -86,14 +86,7 @@ def strain_matrices(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
     Strain order (eps_xx, eps_yy, gamma_xy), engineering shear.
     """
-    area, dldx, dldy = triangle_geometry(xy)
-    nx = np.matmul(dldx, DN_MIDSIDES_T).transpose(1, 0, 2)  # [E, 3 gauss, 6 nodes]
-    ny = np.matmul(dldy, DN_MIDSIDES_T).transpose(1, 0, 2)
-    bq = np.zeros(xy.shape[:1] + (3, 3, 12))
-    bq[:, :, 0, 0::2] = nx
-    bq[:, :, 1, 1::2] = ny
-    bq[:, :, 2, 0::2] = ny
-    bq[:, :, 2, 1::2] = nx
+    bq, area = quadratic_gradient_operator(xy)
     return np.matmul(bq, allman_transform(xy)[:, None]), area
 
 
