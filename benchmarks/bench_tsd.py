@@ -57,7 +57,7 @@ def main() -> None:
         unsteady_s = rom.solver_seconds - mf.steady.seconds
         row = {
             "mach": mach, "grid": list(grid.shape), "grid_points": grid.n_points, "n_basis": basis.n_basis,
-            "dt": solver.time_step(grid), "n_sub": solver.n_sub_at(mach, solver.time_step(grid)),
+            "dt": solver.time_step(grid), "n_sub": solver.n_sub_at(mach),
             "steady_steps": mf.steady.steps, "steady_converged": mf.steady.converged,
             "steady_s": round(mf.steady.seconds, 2),
             "unsteady_steps": unsteady_steps, "unsteady_s": round(unsteady_s, 2),

@@ -149,6 +149,8 @@ def train_rom(
     dt_star = check_dt_star(1.0 / mesh.n_chord if dt_star is None else dt_star)
     if not (math.isfinite(nrmse_tol) and nrmse_tol > 0):
         raise InputError("nrmse_tol", f"must be a finite number > 0, got {nrmse_tol!r}")
+    if isinstance(reduce_order, str) and reduce_order != "auto":  # before the solver run
+        raise InputError("reduce_order", f"must be an integer, 'auto' or None, got {reduce_order!r}")
     m = shapes.shape[1]
     if n_steps is None:
         n_steps = default_n_steps(m, na, nb, dt_star, k_max)
@@ -171,8 +173,6 @@ def train_rom(
     if progress is not None:
         progress(0.92, "identifying ARX model")
     n = int(n_steps)
-    if isinstance(reduce_order, str) and reduce_order != "auto":
-        raise InputError("reduce_order", f"must be an integer, 'auto' or None, got {reduce_order!r}")
     fits: list[_Fit] = []
     for na_i, nb_i in [(na, nb), *[(int(a), int(b)) for a, b in order_fallbacks]]:  # a few candidate orders
         fit = _identify(exc.train, gac, both, n, m, na_i, nb_i, ridge, dt_star, k_max, reduce_order, hsv_tol,

@@ -41,8 +41,8 @@ MIN_MACH = 0.4
 TE_CELLS_PER_STEP = 3.0
 
 
-def sub_iterations(mach: float, dt: float = 0.02) -> int:
-    """Newton sub-iterations per step that keep the factored scheme stable at ``mach`` (``dt`` in t*, unused).
+def sub_iterations(mach: float) -> int:
+    """Newton sub-iterations per step that keep the factored scheme stable at ``mach``.
 
     Measured on the AGARD 445.6 grid at dt 0.02: one grows at M 0.5, two are stable from M 0.5 up and grow at
     M 0.4, three are stable at 0.4. One sub-iteration at the cropped delta's capped step (0.0111) looked stable on
@@ -204,9 +204,9 @@ class TsdSolver:
         te = (grid.xf[i_te + 1] - grid.xf[i_te]) * grid.chord(grid.yc[strips]).min()
         return float(min(self.dt, TE_CELLS_PER_STEP * te))
 
-    def n_sub_at(self, mach: float, dt: float | None = None) -> int:
-        """Sub-iterations per time step at ``mach`` and internal step ``dt`` (t*; default ``dt``)."""
-        return self.n_sub if self.n_sub is not None else sub_iterations(mach, self.dt if dt is None else dt)
+    def n_sub_at(self, mach: float) -> int:
+        """Sub-iterations per time step at ``mach``."""
+        return self.n_sub if self.n_sub is not None else sub_iterations(mach)
 
     def mean_flow(self, mesh: StandardMesh, mach: float, progress: ProgressFn | None = None,
                   share: float = 1.0) -> TsdFlow:
@@ -225,7 +225,7 @@ class TsdSolver:
 
         dt = self.time_step(grid)
         result = flow.solve_steady(dt=dt, max_steps=int(self.steady_steps * self.dt / dt), tol=self.steady_tol,
-                                   n_sub=self.n_sub_at(mach, dt), check=check)
+                                   n_sub=self.n_sub_at(mach), check=check)
         if not np.all(np.isfinite(flow.phi)):
             raise RuntimeError(f"TSD steady solution diverged at M = {mach} (reduce dt or refine the grid)")
         up, lo = flow.surface_cp()
@@ -254,7 +254,7 @@ class TsdSolver:
         n_int = max(1, math.ceil(dt_star / self.time_step(grid) - 1e-9))
         dt = dt_star / n_int
         n_t = signals.shape[0]
-        n_sub = self.n_sub_at(mach, dt)
+        n_sub = self.n_sub_at(mach)
         padded = np.vstack([np.zeros((1, signals.shape[1])), signals])  # u = 0 one step before n = 0
         gac = np.zeros((n_t, shapes.shape[1]))
         t_wall = time.perf_counter()
