@@ -10,11 +10,19 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from romams_core.aero.protocol import ProgressFn, UnsteadySolver, check_dt_star, check_mach, check_shapes
+from romams_core.aero.protocol import (
+    ProgressFn,
+    RecordsSolver,
+    UnsteadySolver,
+    check_dt_star,
+    check_mach,
+    check_shapes,
+)
 from romams_core.arx import ArxModel, arx_simulate, fit_arx, nrmse
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
@@ -131,7 +139,8 @@ def train_rom(
     """Identify an ARX ROM of ``solver`` for shapes [N, m] (m) at ``mach``; one solver run trains and validates.
 
     Signals: one band-limited (0 < k <= k_max on the root semichord) uncorrelated signal per shape, peak
-    surface displacement ``displacement_fraction`` of c_ref (1 %); run as [train | validation] in one call.
+    surface displacement ``displacement_fraction`` of c_ref (1 %); run as [train | validation] in one call, or as
+    two records from rest side by side by a ``RecordsSolver``.
     The ARX (orders na, nb, ridge)
     is fitted on the training half and checked in free run on the validation half: any output with NRMSE
     > nrmse_tol raises TrainingError naming it, as does a model that cannot be stabilized (unstable, unexcited
@@ -164,11 +173,16 @@ def train_rom(
             progress(0.9 * frac, msg)
 
     t_solver = time.perf_counter()
-    both = np.vstack([exc.train, exc.validation])
-    gac = np.asarray(solver.simulate(mesh, shapes, both, mach, dt_star, progress=_solver_progress), dtype=float)
+    both = _Records(exc.train, exc.validation, continued=not isinstance(solver, RecordsSolver))
+    if isinstance(solver, RecordsSolver):  # independent records from rest, run side by side by the solver
+        out = np.vstack(solver.simulate_records(mesh, shapes, [exc.train, exc.validation], mach, dt_star,
+                                                progress=_solver_progress))
+    else:
+        out = solver.simulate(mesh, shapes, both.signals, mach, dt_star, progress=_solver_progress)
+    gac = np.asarray(out, dtype=float)
     solver_seconds = time.perf_counter() - t_solver
-    if gac.shape != both.shape or not np.all(np.isfinite(gac)):
-        raise TrainingError(f"solver {solver.name!r} returned GAC of shape {gac.shape} (expected {both.shape}) "
+    if gac.shape != both.signals.shape or not np.all(np.isfinite(gac)):
+        raise TrainingError(f"solver {solver.name!r} returned GAC of shape {gac.shape} (expected {both.signals.shape}) "
                             "or non-finite values")
     if progress is not None:
         progress(0.92, "identifying ARX model")
@@ -230,6 +244,26 @@ def train_rom(
 
 
 @dataclass
+class _Records:
+    """The training and validation signals, [T_train, m] and [T_val, m], as one run (continued) or two from rest."""
+
+    train: np.ndarray
+    validation: np.ndarray
+    continued: bool = True
+
+    @property
+    def signals(self) -> np.ndarray:
+        """[T_train + T_val, m] both signals, stacked."""
+        return np.vstack([self.train, self.validation])
+
+    def simulate(self, model: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+        """[T_train + T_val, m] output of ``model`` (signals -> outputs, from rest) on the records as they ran."""
+        if self.continued:
+            return model(self.signals)
+        return np.vstack([model(self.train), model(self.validation)])
+
+
+@dataclass
 class _Fit:
     """One identified model of a training run: ARX, its realization, the (reduced) ROM and its validation."""
 
@@ -248,7 +282,7 @@ class _Fit:
 
 
 def _identify(
-    u_train: np.ndarray, gac: np.ndarray, both: np.ndarray, n: int, m: int, na: int, nb: int, ridge: float,
+    u_train: np.ndarray, gac: np.ndarray, both: _Records, n: int, m: int, na: int, nb: int, ridge: float,
     dt_star: float, k_max: float, reduce_order: int | str | None, hsv_tol: float | None, reduce_tol: float,
     progress: ProgressFn | None,
 ) -> _Fit:
@@ -265,7 +299,7 @@ def _identify(
             notes.append(f"plain ARX fit was unstable (spectral radius {rho:.4f}); refitted with ar_ridge = {lam:g}")
             arx, full, ar_ridge = trial, trial_ss, lam
             break
-    pred_arx = arx_simulate(arx, both) if full.spectral_radius() < 1.0 else np.zeros_like(gac)
+    pred_arx = both.simulate(lambda u: arx_simulate(arx, u)) if full.spectral_radius() < 1.0 else np.zeros_like(gac)
     if not full.spectral_radius() < 1.0:
         full, pred_arx, n_ref = _stabilize(full, u_train, gac, both, n)
         notes.append(
@@ -282,14 +316,14 @@ def _identify(
             progress(0.95, "balanced truncation")
         ss, hsv = balanced_truncation(full, order=None if isinstance(reduce_order, str) else reduce_order,
                                       hsv_tol=hsv_tol)
-    pred = ss.simulate(both)[n:] if ss is not full else pred_arx[n:]
+    pred = both.simulate(ss.simulate)[n:] if ss is not full else pred_arx[n:]
     return _Fit(na=na, nb=nb, arx=arx, full=full, ss=ss, hsv=hsv, pred=pred, val=nrmse(gac[n:], pred),
                 training_nrmse=nrmse(gac[:n], pred_arx[:n]), arx_val=nrmse(gac[n:], pred_arx[n:]),
                 ar_ridge=ar_ridge, notes=notes)
 
 
 def _stabilize(
-    full: DiscreteSS, u_train: np.ndarray, gac: np.ndarray, both: np.ndarray, n_train: int
+    full: DiscreteSS, u_train: np.ndarray, gac: np.ndarray, both: _Records, n_train: int
 ) -> tuple[DiscreteSS, np.ndarray, int]:
     """Reflect unstable poles; keep the better (validation NRMSE) of plain reflection and reflection + C, D refit."""
     refl, n_ref = reflect_unstable_poles(full)
@@ -300,7 +334,7 @@ def _stabilize(
         )
     best: tuple[float, DiscreteSS, np.ndarray] | None = None
     for cand in (refl, refit_output_map(refl, u_train, gac[:n_train])):  # two candidates
-        pred = cand.simulate(both)
+        pred = both.simulate(cand.simulate)
         err = float(np.max(nrmse(gac[n_train:], pred[n_train:])))
         if best is None or err < best[0]:
             best = (err, cand, pred)
@@ -309,7 +343,7 @@ def _stabilize(
 
 
 def _auto_reduce(
-    full: DiscreteSS, u: np.ndarray, f: np.ndarray, n_train: int, m: int, k_band: float, tol: float
+    full: DiscreteSS, u: _Records, f: np.ndarray, n_train: int, m: int, k_band: float, tol: float
 ) -> tuple[DiscreteSS, np.ndarray]:
     """Smallest stable band-limited balanced truncation (orders m, 2m, ...) with validation NRMSE <= tol."""
     orders = list(range(m, full.n_states, m))
@@ -317,7 +351,7 @@ def _auto_reduce(
     for red in models:  # a handful of candidate orders
         if not red.is_stable():
             continue
-        err = nrmse(f[n_train:], red.simulate(u)[n_train:])
+        err = nrmse(f[n_train:], u.simulate(red.simulate)[n_train:])
         if np.all(err <= tol):
             return red, hsv
     return full, hsv

@@ -70,6 +70,27 @@ class UnsteadySolver(Protocol):
 
 
 @runtime_checkable
+class RecordsSolver(Protocol):
+    """A time-domain solver that runs several independent records, each from rest, in one call (side by side).
+
+    Training then runs its training and validation signals as two records instead of one continued run, and
+    validates the model from rest on the validation signal.
+    """
+
+    def simulate_records(
+        self,
+        mesh: StandardMesh,
+        shapes: np.ndarray,
+        records: list[np.ndarray],
+        mach: float,
+        dt_star: float,
+        progress: ProgressFn | None = None,
+    ) -> list[np.ndarray]:
+        """GAC [T_r, m] (m^3) of shapes [N, m] (m) for each record [T_r, m] of signals, every one from rest."""
+        ...
+
+
+@runtime_checkable
 class FrequencySolver(Protocol):
     """Frequency-domain unsteady aerodynamic solver: harmonic GAC of given shapes at reduced frequencies."""
 

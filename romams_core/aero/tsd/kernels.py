@@ -29,7 +29,7 @@ def _g(u: float, e: float, f: float) -> float:
     return e * u + f * u * u
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _central_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     """d(phi)/d(xi) at the nodes: central inside, one-sided at the ends."""
     ni, nj, nk = phi.shape
@@ -44,7 +44,7 @@ def _central_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _upwind_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     """d(phi)/d(xi) at the nodes by the backward (upwind) difference; zero at the first node."""
     ni, nj, nk = phi.shape
@@ -57,7 +57,7 @@ def _upwind_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def _central_eta(phi: np.ndarray, yc: np.ndarray) -> np.ndarray:
     """d(phi)/dy at the nodes: central inside, mirrored at the root (symmetry), one-sided at the far end."""
     ni, nj, nk = phi.shape
@@ -81,7 +81,7 @@ def _central_eta(phi: np.ndarray, yc: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, xiy_yf,
              wing, wake, wup, wlo, gam, k0, lateral_far, far_u, far_w, sponge, rhs):  # pragma: no cover - compiled
     """Fill ``rhs`` (the factored-step right-hand side s N) and return (max |N|, rms N) over all nodes.
@@ -201,7 +201,7 @@ def _band_solve(a, b, d, e, r, n):  # pragma: no cover - compiled
         r[i] = (r[i] - e[i] * r[i + 1]) / d[i]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def solve_xi(phi, w, tc, co, xc, xf, cj, xiy_xf, sponge):  # pragma: no cover - compiled
     """Apply the streamwise factor's inverse to w in place (EO-switched Jacobian, far-field faces)."""
     ni, nj, nk = phi.shape
@@ -257,7 +257,7 @@ def solve_xi(phi, w, tc, co, xc, xf, cj, xiy_xf, sponge):  # pragma: no cover - 
                 w[i, j, k] = r[i]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no cover - compiled
     """Apply the spanwise factor's inverse to w in place (root symmetry face, lateral far-field face)."""
     ni, nj, nk = phi.shape
@@ -299,7 +299,7 @@ def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no c
                 w[i, j, k] = r[j]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def solve_zeta(w, tc, co, zc, zf, wing, k0):  # pragma: no cover - compiled
     """Apply the normal factor's inverse to w in place (no coupling across the slit, far-field faces)."""
     ni, nj, nk = w.shape

@@ -8,8 +8,13 @@ from them is linear about the transonic mean state (shock position and strength 
 
 from __future__ import annotations
 
+import copy
 import math
+import os
+import threading
 import time
+from collections.abc import Callable
+from concurrent.futures import FIRST_EXCEPTION, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -127,6 +132,7 @@ class TsdSolver:
     steady_steps: int = 2500
     steady_tol: float = 2e-4
     name: str = "tsd"
+    record_threads: int | None = None
     last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -239,42 +245,135 @@ class TsdSolver:
     def simulate(self, mesh: StandardMesh, shapes: np.ndarray, signals: np.ndarray, mach: float, dt_star: float,
                  progress: ProgressFn | None = None) -> np.ndarray:
         """GAC [T, m] (m^3) of shapes [N, m] (m) moving by signals [T, m], about the steady mean flow at ``mach``."""
+        return self.simulate_records(mesh, shapes, [signals], mach, dt_star, progress)[0]
+
+    def simulate_records(self, mesh: StandardMesh, shapes: np.ndarray, records: list[np.ndarray], mach: float,
+                         dt_star: float, progress: ProgressFn | None = None) -> list[np.ndarray]:
+        """GAC [T_r, m] (m^3) of each record [T_r, m], every one from rest about one steady mean flow at ``mach``.
+
+        The records are independent runs: they are marched at the same time on up to ``record_threads`` threads
+        (None: one per record, at most the cores this process may use). The numba kernels release the GIL.
+        """
         mach = self.check_mach(mach)
         dt_star = check_dt_star(dt_star)
         shapes = check_shapes(mesh, shapes)
-        signals = check_signals(signals, shapes.shape[1])
+        records = [check_signals(r, shapes.shape[1]) for r in records]
         grid = self.build_grid(mesh)
         self.check_grid(grid, shapes.shape[1])
         flow = self.mean_flow(mesh, mach, progress, share=0.2)
-        h, hx, wing = self._shape_operators(mesh, grid, shapes)
-        w_up0, w_lo0 = flow.w_up[wing].copy(), flow.w_lo[wing].copy()
+        march = _March.build(self, mesh, flow, shapes, dt_star, mach)
+        n_threads = self.record_threads or min(len(records), len(os.sched_getaffinity(0)))
+        shared = _SharedProgress(progress, [r.shape[0] for r in records], direct=n_threads <= 1)
+        flows = [flow, *(copy.deepcopy(flow) for _ in records[1:])]  # copies of the steady state, before any run
+        if n_threads <= 1 or len(records) == 1:
+            return [march.run(f, r, shared.part(i)) for i, (f, r) in enumerate(zip(flows, records, strict=True))]
+        with ThreadPoolExecutor(max_workers=n_threads) as pool:
+            futures = [pool.submit(march.run, f, r, shared.part(i))
+                       for i, (f, r) in enumerate(zip(flows, records, strict=True))]
+            try:
+                shared.watch(futures)
+                return [fut.result() for fut in futures]
+            finally:
+                shared.stop.set()  # the other records stop at their next report when one fails or is cancelled
+
+
+class _SharedProgress:
+    """Progress of several records marched at once, reported by the calling thread; a stop flag shared by all.
+
+    The marching threads only count their steps (``part``); the caller's thread calls ``progress`` (which may
+    write to a database connection bound to that thread, or raise Cancelled) from ``watch``.
+    """
+
+    def __init__(self, progress: ProgressFn | None, lengths: list[int], direct: bool) -> None:
+        self.progress, self.lengths, self.direct = progress, lengths, direct
+        self.done = [0] * len(lengths)
+        self.message = ""
+        self.stop = threading.Event()
+
+    def fraction(self) -> float:
+        """Share of all records' signal steps done (0..1)."""
+        return sum(self.done) / max(1, sum(self.lengths))
+
+    def part(self, i: int) -> Callable[[int, str], None]:
+        """The step counter of record i: (signal steps done, message); raises Cancelled once the run stops."""
+        label = f"record {i + 1}/{len(self.lengths)}: " if len(self.lengths) > 1 else ""
+
+        def report(n_done: int, msg: str) -> None:
+            if self.stop.is_set():
+                raise Cancelled("another record of this run stopped")
+            self.done[i], self.message = n_done, label + msg
+            if self.direct and self.progress is not None:
+                self.progress(0.2 + 0.8 * self.fraction(), self.message)
+        return report
+
+    def watch(self, futures: list[Future[np.ndarray]], every_s: float = 1.0) -> None:
+        """Report progress every ``every_s`` seconds until all records finish or one fails (then stop the rest)."""
+        pending = set(futures)
+        last = -1.0
+        while pending:
+            finished, pending = wait(pending, timeout=every_s, return_when=FIRST_EXCEPTION)
+            if any(f.exception() is not None for f in finished):
+                self.stop.set()
+                return
+            if self.progress is not None and self.fraction() != last:
+                last = self.fraction()
+                try:
+                    self.progress(0.2 + 0.8 * last, self.message)
+                except BaseException:
+                    self.stop.set()
+                    raise
+
+
+@dataclass
+class _March:
+    """What the time-accurate run of one record needs: the shapes on the grid and the step sizes."""
+
+    h: np.ndarray  # [n_wing, m] shape values / c_ref
+    hx: np.ndarray  # [n_wing, m] shape slopes
+    wing: np.ndarray  # [ni, nj] planform node mask
+    weights: np.ndarray  # [n_wing, m] cell lift -> GAC (m^3)
+    f_mean: np.ndarray  # [m] GAC of the mean flow
+    w_up0: np.ndarray
+    w_lo0: np.ndarray
+    dt_star: float
+    n_int: int
+    n_sub: int
+    mach: float
+
+    @classmethod
+    def build(cls, solver: TsdSolver, mesh: StandardMesh, flow: TsdFlow, shapes: np.ndarray, dt_star: float,
+              mach: float) -> _March:
+        """Shape operators, GAC weights and internal steps of ``solver`` for shapes [N, m] (m) about ``flow``."""
+        grid = flow.grid
+        h, hx, wing = solver._shape_operators(mesh, grid, shapes)
         dy = np.broadcast_to(np.diff(grid.yf)[None, :], wing.shape)[wing]
         weights = h * (dy * mesh.c_ref ** 3)[:, None]  # [n_wing, m]: cell lift (c_ref units) -> GAC (m^3)
-        f_mean = flow.cell_lift()[wing] @ weights
-        n_int = max(1, math.ceil(dt_star / self.time_step(grid) - 1e-9))
-        dt = dt_star / n_int
+        n_int = max(1, math.ceil(dt_star / solver.time_step(grid) - 1e-9))
+        return cls(h=h, hx=hx, wing=wing, weights=weights, f_mean=flow.cell_lift()[wing] @ weights,
+                   w_up0=flow.w_up[wing].copy(), w_lo0=flow.w_lo[wing].copy(), dt_star=dt_star, n_int=n_int,
+                   n_sub=solver.n_sub_at(mach), mach=mach)
+
+    def run(self, flow: TsdFlow, signals: np.ndarray, report: Callable[[int, str], None]) -> np.ndarray:
+        """GAC [T, m] (m^3) of one record [T, m] marched on ``flow`` from its steady state (u = 0 before n = 0)."""
+        wing, dt = self.wing, self.dt_star / self.n_int
         n_t = signals.shape[0]
-        n_sub = self.n_sub_at(mach)
-        padded = np.vstack([np.zeros((1, signals.shape[1])), signals])  # u = 0 one step before n = 0
-        gac = np.zeros((n_t, shapes.shape[1]))
+        padded = np.vstack([np.zeros((1, signals.shape[1])), signals])
+        gac = np.zeros((n_t, signals.shape[1]))
         t_wall = time.perf_counter()
         flow.start_unsteady()
         for n in range(n_t):
-            for sub in range(1, n_int + 1):
-                frac = sub / n_int
-                u = (1.0 - frac) * padded[n] + frac * padded[n + 1]
-                udot = (padded[n + 1] - padded[n]) / dt_star
-                w_mod = hx @ u + h @ udot
-                flow.w_up[wing] = w_up0 + w_mod
-                flow.w_lo[wing] = w_lo0 + w_mod
-                flow.step(dt, n_sub)
-            gac[n] = flow.cell_lift(dt)[wing] @ weights - f_mean
+            udot = (padded[n + 1] - padded[n]) / self.dt_star
+            for sub in range(1, self.n_int + 1):
+                frac = sub / self.n_int
+                w_mod = self.hx @ ((1.0 - frac) * padded[n] + frac * padded[n + 1]) + self.h @ udot
+                flow.w_up[wing] = self.w_up0 + w_mod
+                flow.w_lo[wing] = self.w_lo0 + w_mod
+                flow.step(dt, self.n_sub)
+            gac[n] = flow.cell_lift(dt)[wing] @ self.weights - self.f_mean
             if not np.all(np.isfinite(gac[n])):
-                raise RuntimeError(f"TSD unsteady run diverged at step {n} (M = {mach}); reduce dt")
-            if progress is not None and (n % 20 == 0 or n == n_t - 1):
-                progress(0.2 + 0.8 * (n + 1) / n_t,
-                         f"unsteady: step {n + 1}/{n_t} ({time.perf_counter() - t_wall:.0f} s)")
+                raise RuntimeError(f"TSD unsteady run diverged at step {n} (M = {self.mach}); reduce dt")
+            if n % 20 == 0 or n == n_t - 1:
+                report(n + 1, f"unsteady: step {n + 1}/{n_t} ({time.perf_counter() - t_wall:.0f} s)")
         return gac
-
 
 __all__ = ["TsdSolver", "MeanFlow", "Cancelled", "check_thickness", "mesh_interpolation"]
