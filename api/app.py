@@ -41,7 +41,8 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        sw = StaleSweeper(store, celery, settings.job_stale_s).start() if sweeper else None
+        sw = (StaleSweeper(store, celery, settings.job_stale_s, queued_resend_s=settings.job_queued_resend_s).start()
+              if sweeper else None)
         try:
             yield
         finally:

@@ -6,7 +6,7 @@ counts deliveries (over the cap the job fails with the reason), a heartbeat thre
 row while the task is alive, a progress callback that raises ``Cancelled`` once the job was cancelled,
 and a guarded final transition. A job whose result is stored (a basis, a ROM, an evaluation) stores it and
 succeeds in one guarded transaction (:func:`store_and_finish`). :func:`sweep_stale` re-sends running jobs whose
-worker died.
+worker died and queued jobs whose message may be lost.
 """
 
 from __future__ import annotations
@@ -223,13 +223,48 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
     return outcome
 
 
-def sweep_stale(store: Store, celery: Any, stale_s: float) -> list[str]:
-    """Re-send running jobs untouched for ``stale_s`` seconds (their worker died); returns their ids."""
+def fanout_outcome(store: Store, parent_id: str) -> list[dict[str, Any]] | None:
+    """The chunks of a fan-out parent, or None after ending the parent because a chunk was cancelled or failed."""
+    kids = store.jobs.children(parent_id)
+    if any(k["status"] == JobStatus.CANCELLED for k in kids):
+        store.jobs.finish(parent_id, JobStatus.CANCELLED, message="a chunk was cancelled")
+        return None
+    failed = [k for k in kids if k["status"] == JobStatus.FAILED]
+    if failed:
+        first = failed[0]
+        store.jobs.finish(parent_id, JobStatus.FAILED,
+                          error=f"chunk {first['params'].get('index')} failed: {first['error']}")
+        return None
+    return kids
+
+
+def _sweep_fanout(store: Store, celery: Any, job: dict[str, Any]) -> bool:
+    """A fan-out parent: keep it alive while its chunks work; end or finalize it once they all ended (the last
+    chunk's own hand-over may have been lost to a database outage). True when a finalize task was sent."""
+    kids = fanout_outcome(store, job["id"])
+    if kids is None:
+        return False
+    task = FINALIZE_FOR_KIND.get(job["kind"])
+    if kids and task and all(k["status"] == JobStatus.SUCCEEDED for k in kids) \
+            and store.jobs.claim_stage(job["id"], "fanout", "finalize"):
+        store.jobs.heartbeat(job["id"])
+        celery.send_task(task, args=[job["id"]])
+        return True
+    store.jobs.heartbeat(job["id"])  # its chunks carry the work; they are swept on their own
+    return False
+
+
+def sweep_stale(store: Store, celery: Any, stale_s: float, queued_resend_s: float | None = None) -> list[str]:
+    """Re-send running jobs untouched for ``stale_s`` seconds (their worker died) and queued jobs untouched for
+    ``queued_resend_s`` seconds (their message may be lost: a broker restart without persistence, a task that
+    failed before it could read its row); returns their ids. A duplicate message is harmless: the guarded start
+    lets one delivery run the job and the others return."""
     resent = []
     for job in store.jobs.stale(stale_s):
         kind, stage = job["kind"], store.jobs.stage(job["id"])
         if stage == "fanout":
-            store.jobs.heartbeat(job["id"])  # its chunks carry the work; they are swept on their own
+            if _sweep_fanout(store, celery, job):
+                resent.append(job["id"])
             continue
         task = FINALIZE_FOR_KIND.get(kind) if stage == "finalize" else TASK_FOR_KIND.get(kind)
         if task is None:
@@ -240,14 +275,22 @@ def sweep_stale(store: Store, celery: Any, stale_s: float) -> list[str]:
         elif store.jobs.requeue(job["id"], f"re-sent after {stale_s:.0f} s without a heartbeat (worker lost)"):
             celery.send_task(task, args=[job["id"]], task_id=job["id"])
         resent.append(job["id"])
+    if queued_resend_s is not None:
+        for job in store.jobs.stale(queued_resend_s, status=JobStatus.QUEUED):
+            task = TASK_FOR_KIND.get(job["kind"])
+            if task and store.jobs.touch_queued(job["id"], f"re-sent after {queued_resend_s:.0f} s in the queue "
+                                                           "(its message may have been lost)"):
+                celery.send_task(task, args=[job["id"]], task_id=job["id"])
+                resent.append(job["id"])
     return resent
 
 
 class StaleSweeper:
     """Daemon thread calling :func:`sweep_stale` periodically (runs in the API process)."""
 
-    def __init__(self, store: Store, celery: Any, stale_s: float, period_s: float | None = None) -> None:
-        self.store, self.celery, self.stale_s = store, celery, stale_s
+    def __init__(self, store: Store, celery: Any, stale_s: float, period_s: float | None = None,
+                 queued_resend_s: float | None = None) -> None:
+        self.store, self.celery, self.stale_s, self.queued_resend_s = store, celery, stale_s, queued_resend_s
         self.period_s = period_s or max(1.0, stale_s / 4)
         self._stop = threading.Event()
         self._t = threading.Thread(target=self._run, daemon=True, name="romams-stale-sweeper")
@@ -255,7 +298,7 @@ class StaleSweeper:
     def _run(self) -> None:
         while not self._stop.wait(self.period_s):
             try:
-                sweep_stale(self.store, self.celery, self.stale_s)
+                sweep_stale(self.store, self.celery, self.stale_s, self.queued_resend_s)
             except Exception:  # noqa: BLE001 - keep sweeping after a transient error
                 continue
 

@@ -55,6 +55,8 @@ class Settings(BaseSettings):
                                       "a request fails with 503 after at most this long")
     heartbeat_s: float = Field(default=5.0, gt=0, description="how often a running task touches its job row")
     job_stale_s: float = Field(default=60.0, gt=0, description="a running job untouched this long is re-sent")
+    job_queued_resend_s: float = Field(default=300.0, gt=0, description="a queued job untouched this long is re-sent "
+                                       "(its message may have been lost by a broker restart or a failed delivery)")
     broker_poll_s: float = Field(default=0.05, gt=0, description="poll period of the server-less SQLite broker")
     evaluation_poll_s: float = Field(default=0.02, gt=0, description="poll period of the SQLite broker for the "
                                      "embedded evaluation worker of `romams serve` (synchronous evaluations; "

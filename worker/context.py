@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from romams.jobs import JobFailed, ProgressFn, run_job
-from romams.persistence import JobStatus, Store, open_store
+from romams.persistence import Store, open_store
 from romams.settings import get_settings
 from worker.cache import LruCache
 
@@ -77,16 +77,3 @@ def train_model(mesh: Any, shapes: Any, mach: float, ident: Mapping[str, Any], w
         raise JobFailed(f"{what} failed: {exc}") from exc
 
 
-def chunk_outcome(s: Store, parent_id: str) -> list[dict[str, Any]] | None:
-    """The chunks of a fan-out parent, or None after ending the parent because a chunk was cancelled or failed."""
-    kids = s.jobs.children(parent_id)
-    if any(k["status"] == JobStatus.CANCELLED for k in kids):
-        s.jobs.finish(parent_id, JobStatus.CANCELLED, message="a chunk was cancelled")
-        return None
-    failed = [k for k in kids if k["status"] == JobStatus.FAILED]
-    if failed:
-        first = failed[0]
-        s.jobs.finish(parent_id, JobStatus.FAILED,
-                      error=f"chunk {first['params'].get('index')} failed: {first['error']}")
-        return None
-    return kids

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from romams.jobs import JobFailed, Outcome, ProgressFn, store_and_finish
+from romams.jobs import JobFailed, Outcome, ProgressFn, fanout_outcome, store_and_finish
 from romams.persistence import JobStatus, UnitOfWork
 from romams.services.evaluation import (
     Models,
@@ -25,7 +25,6 @@ from worker.cache import LruCache
 from worker.celery_app import app
 from worker.context import (
     OBJECTS,
-    chunk_outcome,
     load_basis,
     load_mesh,
     load_rom,
@@ -165,7 +164,7 @@ def flutter_chunk(job_id: str) -> None:
 def assemble_batch(parent_id: str) -> None:
     """After a chunk: update the batch's progress; when all chunks succeeded, the claimer writes the results."""
     s = store()
-    kids = chunk_outcome(s, parent_id)
+    kids = fanout_outcome(s, parent_id)
     if kids is None:
         return
     done = [k for k in kids if k["status"] == JobStatus.SUCCEEDED]

@@ -13,12 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from romams.jobs import ProgressFn, send, store_and_finish
+from romams.jobs import ProgressFn, fanout_outcome, send, store_and_finish
 from romams.persistence import JobStatus, UnitOfWork
 from romams.pipeline import own_mode_basis
 from romams.services.models import activate_first_basis
 from worker.celery_app import app
-from worker.context import chunk_outcome, load_basis, load_mesh, load_wing, run, settings, store, train_model
+from worker.context import load_basis, load_mesh, load_wing, run, settings, store, train_model
 
 
 # ---- basis ---------------------------------------------------------------------------------------
@@ -68,7 +68,7 @@ def basis_job(job_id: str) -> None:
 def _after_chunk(parent_id: str, finalize_task: str, lo: float, hi: float) -> None:
     """Update a fan-out parent after one of its chunks ended; the last one sends ``finalize_task``."""
     s = store()
-    kids = chunk_outcome(s, parent_id)
+    kids = fanout_outcome(s, parent_id)
     if kids is None:
         return
     done = sum(k["status"] == JobStatus.SUCCEEDED for k in kids)

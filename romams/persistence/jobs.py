@@ -104,12 +104,14 @@ class JobRepository(Repository):
                                    .order_by(Job.created_at.desc()).execution_options(populate_existing=True))
         return None if job is None else job_dict(job)
 
-    def stale(self, older_than_s: float) -> list[dict[str, Any]]:
-        """Running jobs whose row has not been touched for ``older_than_s`` seconds (their worker died)."""
+    def stale(self, older_than_s: float, status: JobStatus = JobStatus.RUNNING) -> list[dict[str, Any]]:
+        """Jobs in ``status`` whose row has not been touched for ``older_than_s`` seconds: running ones whose worker
+        died, or queued ones whose message may be lost (a broker restart without persistence, a delivery that
+        failed before its row could be read)."""
         cutoff = utcnow() - dt.timedelta(seconds=float(older_than_s))
         if self._session.get_bind().dialect.name == "sqlite":
             cutoff = cutoff.replace(tzinfo=None)
-        q = select(Job).where(Job.status == JobStatus.RUNNING.value, Job.updated_at < cutoff)
+        q = select(Job).where(Job.status == JobStatus(status).value, Job.updated_at < cutoff)
         return [job_dict(j) for j in self._session.scalars(q.execution_options(populate_existing=True))]
 
     # ---- transitions -------------------------------------------------------------------------
@@ -202,6 +204,10 @@ class JobRepository(Repository):
     def heartbeat(self, job_id: str) -> bool:
         """Touch updated_at of a running job (proof of life for the stale-job sweeper)."""
         return self.update(job_id, expect=_RUNNING)
+
+    def touch_queued(self, job_id: str, message: str) -> bool:
+        """Touch a queued job (guarded) before its message is sent again; True if it was still queued."""
+        return self.update(job_id, expect=(JobStatus.QUEUED.value,), message=message)
 
     def requeue(self, job_id: str, message: str) -> bool:
         """running -> queued (guarded), before a stale job's message is sent again."""

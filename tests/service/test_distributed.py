@@ -65,3 +65,29 @@ def test_basis_training_and_worker_crash_on_postgres_and_redis(tmp_path, pg_url,
     finally:
         for w in workers:
             w.stop()
+
+
+def test_queued_jobs_survive_a_broker_that_lost_their_messages(tmp_path, pg_url, redis_url):
+    """Redis restarted without persistence: the queued job's message is gone; the sweeper re-sends it."""
+    import redis
+
+    env_settings = {"database_url": pg_url, "broker_url": redis_url, "heartbeat_s": 0.5, "job_stale_s": 8.0,
+                    "job_queued_resend_s": 3.0}
+    env = service_env(tmp_path, **env_settings)
+    up = subprocess.run([sys.executable, "-m", "alembic", "upgrade", "head"], cwd=ROOT, env=env, capture_output=True,
+                        text=True, timeout=120)
+    assert up.returncode == 0, up.stderr
+    settings = Settings(data_dir=tmp_path, **env_settings)
+    with TestClient(create_app(settings)) as c:
+        wid = c.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
+        r = c.post(f"/api/v1/wings/{wid}/basis", json={"samples": 4, "modes": 3, "seed": 2})
+        jid = r.json()["job_id"]
+        redis.Redis.from_url(redis_url).flushdb()  # no worker yet: the message is lost with the broker's memory
+        assert c.get(f"/api/v1/jobs/{jid}").json()["status"] == "queued"
+        worker = WorkerProcess(env, tmp_path / "w.log", concurrency=1)
+        try:
+            job = wait_job(c, jid, 240)
+            assert job["status"] == "succeeded", (job, worker.log_tail())
+            assert c.get(f"/api/v1/wings/{wid}/bases").json()[0]["summary"]["n_basis"] >= 1
+        finally:
+            worker.stop()
