@@ -84,6 +84,11 @@ def test_bad_input_names_the_field():
         with pytest.raises(InputError) as exc:
             TsdSolver().simulate(mesh, shapes[:, :1], np.zeros((10, 1)), mach, 0.1)
         assert exc.value.field == "mach"
+    small = GridSpec(n_chord=16, n_upstream=6, n_downstream=8, n_span=6, n_outboard=4, n_z=10, dz0=0.04)
+    pitch = np.column_stack([(mesh.x - AGARD_LIKE.x_le(mesh.y)) / AGARD_LIKE.root_chord])  # slope 1 per unit u
+    with pytest.raises(InputError) as exc:  # a 30 deg pitch step (it crashed the line solves before)
+        TsdSolver(grid=small).simulate(mesh, pitch, np.full((10, 1), 0.55), 0.8, 0.1)
+    assert exc.value.field == "signals" and "small-disturbance" in str(exc.value)
 
 
 def test_thickness_mean_flow_is_symmetric_and_cancellable():

@@ -57,6 +57,10 @@ def sub_iterations(mach: float) -> int:
     return 3 if mach < 0.6 else 2
 
 
+#: largest surface downwash |dh/dx + dh/dt| (U units, ~ rad) of a motion: beyond it small-disturbance theory is void
+MAX_SURFACE_DOWNWASH = 0.5
+
+
 #: wing columns of the TSD grid per shape, at least (a coarser grid cannot carry the shapes' slopes)
 MIN_WING_COLUMNS_PER_SHAPE = 20
 
@@ -262,6 +266,7 @@ class TsdSolver:
         self.check_grid(grid, shapes.shape[1])
         flow = self.mean_flow(mesh, mach, progress, share=0.2)
         march = _March.build(self, mesh, flow, shapes, dt_star, mach)
+        march.check_amplitude(records)
         n_threads = self.record_threads or min(len(records), len(os.sched_getaffinity(0)))
         shared = _SharedProgress(progress, [r.shape[0] for r in records], direct=n_threads <= 1)
         flows = [flow, *(copy.deepcopy(flow) for _ in records[1:])]  # copies of the steady state, before any run
@@ -353,6 +358,18 @@ class _March:
                    w_up0=flow.w_up[wing].copy(), w_lo0=flow.w_lo[wing].copy(), dt_star=dt_star, n_int=n_int,
                    n_sub=solver.n_sub_at(mach), mach=mach)
 
+    def downwash(self, signals: np.ndarray) -> np.ndarray:
+        """[n_wing, T] surface downwash dh/dx + dh/dt (U units) of signals [T, m] at the signal samples."""
+        udot = np.diff(np.vstack([np.zeros((1, signals.shape[1])), signals]), axis=0) / self.dt_star
+        return np.asarray(self.hx @ signals.T + self.h @ udot.T)
+
+    def check_amplitude(self, records: list[np.ndarray]) -> None:
+        """Refuse motions whose surface downwash exceeds MAX_SURFACE_DOWNWASH (InputError naming ``signals``)."""
+        worst = max(float(np.max(np.abs(self.downwash(r)), initial=0.0)) for r in records)
+        if not worst <= MAX_SURFACE_DOWNWASH:
+            raise InputError("signals", f"the motion tilts the surface by up to {worst:.3g} (dh/dx + dh/dt, U units); "
+                             f"the small-disturbance solver takes at most {MAX_SURFACE_DOWNWASH}: reduce the amplitude")
+
     def run(self, flow: TsdFlow, signals: np.ndarray, report: Callable[[int, str], None]) -> np.ndarray:
         """GAC [T, m] (m^3) of one record [T, m] marched on ``flow`` from its steady state (u = 0 before n = 0)."""
         wing, dt = self.wing, self.dt_star / self.n_int
@@ -368,7 +385,10 @@ class _March:
                 w_mod = self.hx @ ((1.0 - frac) * padded[n] + frac * padded[n + 1]) + self.h @ udot
                 flow.w_up[wing] = self.w_up0 + w_mod
                 flow.w_lo[wing] = self.w_lo0 + w_mod
-                flow.step(dt, self.n_sub)
+                try:
+                    flow.step(dt, self.n_sub)
+                except (ZeroDivisionError, FloatingPointError) as exc:
+                    raise RuntimeError(f"TSD unsteady run diverged at step {n} (M = {self.mach}): {exc}") from exc
             gac[n] = flow.cell_lift(dt)[wing] @ self.weights - self.f_mean
             if not np.all(np.isfinite(gac[n])):
                 raise RuntimeError(f"TSD unsteady run diverged at step {n} (M = {self.mach}); reduce dt")
