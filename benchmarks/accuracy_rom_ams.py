@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from romams.pipeline import PAPER_MACHS, make_solver, rom_identity, train_shapes
+from romams.pipeline import PAPER_MACHS, make_solver, rom_identity
 from romams_core.atmosphere import density
 from romams_core.basis import build_basis_for_wing, project, random_designs
 from romams_core.evaluate import evaluate_structure
@@ -69,14 +69,15 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
     mesh = standard_mesh(wing.planform)
     ident = ident or rom_identity()
     basis = build_basis_for_wing(wing, samples=samples, modes=4, mac_threshold=mac_threshold, max_basis=max_basis)
-    roms = dict(zip(machs, train_shapes(mesh, basis.shapes, machs, ident, processes), strict=True))
     designs = random_designs(wing, n_designs, seed=seed)
     modals = [modal_analysis(wing, x, 4, mesh) for x in designs]
-    # ROM-PMS: one training per (design, Mach), spread over processes, Mach by Mach (a frequency-domain solver
-    # then reuses its factorized AICs of that Mach); pms_roms[i * n_mach + j] is design i at Mach j
+    # the basis ROMs (ROM-AMS) and one ROM per (design, Mach) (ROM-PMS) in one call: a frequency-domain solver
+    # factorizes its AICs once per Mach for all of them; pms_roms[i * n_mach + j] is design i at Mach j
     from romams.pipeline import parallel_map, train_shape_sets
 
-    pms_roms = [r for rs in train_shape_sets(mesh, [m.shapes for m in modals], machs, ident, processes) for r in rs]
+    trained = train_shape_sets(mesh, [basis.shapes, *(m.shapes for m in modals)], machs, ident, processes)
+    roms = dict(zip(machs, trained[0], strict=True))
+    pms_roms = [r for rs in trained[1:] for r in rs]
     n_fom = min(max(int(fom), 0), n_designs)
     fom_jobs = [(mesh, m.omega, m.shapes, mach, wing.modal_damping, sweep, ident["solver"]) for m in modals[:n_fom]
                 for mach in machs]

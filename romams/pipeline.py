@@ -19,8 +19,8 @@ import numpy as np
 
 from romams.services.evaluation import DEFAULT_MAC_THRESHOLD, DEFAULT_N_MODES, Models
 from romams.services.models import activate_first_basis, resolve_basis_id
+from romams.services.training import is_frequency_solver, quality_line, rom_identity, train
 from romams.services.training import make_solver as make_solver  # re-exported
-from romams.services.training import quality_line, rom_identity, train
 from romams_core.basis import Basis, build_basis, build_basis_for_wing, snapshot
 from romams_core.mesh import StandardMesh, standard_mesh
 from romams_core.wing import WingDefinition, template
@@ -93,12 +93,6 @@ def ensure_basis(
     return int(bid), basis
 
 
-def _train_one(args: tuple[StandardMesh, np.ndarray, float, dict[str, Any]]) -> Any:
-    """Worker-process body: train one ROM (top level so it pickles)."""
-    mesh, shapes, mach, ident = args
-    return train(mesh, shapes, mach, ident)
-
-
 def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], processes: int | None = None) -> list[Any]:
     """Map ``fn`` over ``items`` in up to ``processes`` worker processes (default: CPU count), in order."""
     n = min(len(items), processes or os.cpu_count() or 1)
@@ -114,18 +108,27 @@ def train_shapes(mesh: StandardMesh, shapes: np.ndarray, machs: Sequence[float],
     return train_shape_sets(mesh, [shapes], machs, ident, processes)[0]
 
 
+def _train_group(args: tuple[StandardMesh, list[np.ndarray], float, dict[str, Any]]) -> list[Any]:
+    """Worker-process body: train one ROM per shape set at one Mach (top level so it pickles)."""
+    mesh, sets, mach, ident = args
+    return [train(mesh, shapes, mach, ident) for shapes in sets]
+
+
 def train_shape_sets(mesh: StandardMesh, shape_sets: Sequence[np.ndarray], machs: Sequence[float],
                      ident: Mapping[str, Any], processes: int | None = None) -> list[list[Any]]:
     """ROMs of several shape sets (e.g. the own modes of several structures) at every Mach: out[i][j] is set i at
-    machs[j]. Trained in parallel processes Mach by Mach, so a frequency-domain solver's per-process cache of
-    factorized AICs (one per Mach and reduced frequency) serves every set of that Mach."""
-    order = [(i, j) for j in range(len(machs)) for i in range(len(shape_sets))]
-    trained = parallel_map(_train_one, [(mesh, shape_sets[i], float(machs[j]), dict(ident)) for i, j in order],
-                           processes)
-    out: list[list[Any]] = [[None] * len(machs) for _ in shape_sets]
-    for (i, j), rom in zip(order, trained, strict=True):
-        out[i][j] = rom
-    return out
+    machs[j], trained in parallel processes. With a frequency-domain solver one process trains every set of a
+    Mach, so its per-process cache of factorized AICs (one per Mach and reduced frequency) is built once per Mach;
+    a time-domain solver's runs share nothing, so every (set, Mach) is a task of its own."""
+    if is_frequency_solver(str(ident.get("solver", ""))):
+        groups = [(mesh, list(shape_sets), float(m), dict(ident)) for m in machs]
+        by_mach = parallel_map(_train_group, groups, processes)
+        return [[by_mach[j][i] for j in range(len(machs))] for i in range(len(shape_sets))]
+    items = [(mesh, [shape_sets[i]], float(machs[j]), dict(ident)) for j in range(len(machs))
+             for i in range(len(shape_sets))]
+    flat = iter(parallel_map(_train_group, items, processes))
+    by_item = {(i, j): next(flat)[0] for j in range(len(machs)) for i in range(len(shape_sets))}
+    return [[by_item[i, j] for j in range(len(machs))] for i in range(len(shape_sets))]
 
 
 def ensure_roms(
