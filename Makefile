@@ -1,5 +1,7 @@
 # Two commands on a fresh machine:  `make demo`  and  `make test`.
 PY ?= python3
+# the suite runs on 2 pytest-xdist workers (CI has 2 cores; many tests wait on services); PYTEST_ARGS= runs it serially
+PYTEST_ARGS ?= -n 2 --dist worksteal
 VENV ?= .venv
 BIN := $(VENV)/bin
 

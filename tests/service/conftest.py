@@ -132,7 +132,11 @@ def redis_url() -> Iterator[str]:
         r0.ping()
     except Exception as exc:  # noqa: BLE001
         _unavailable("Redis at 127.0.0.1:6379", exc)
-    db = 8 + uuid.uuid4().int % 8
+    # databases 8-15, split between pytest-xdist workers (gw0: 8-11, gw1: 12-15) so that two tests running at
+    # the same time never share (and flush) one database
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0")
+    slot = int(worker[2:]) % 2 if worker[2:].isdigit() else 0
+    db = 8 + 4 * slot + uuid.uuid4().int % 4
     r = redis.Redis.from_url(f"{REDIS_URL}/{db}")
     r.flushdb()
     try:
