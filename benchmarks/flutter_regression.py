@@ -54,7 +54,7 @@ def build(fixture: Path, n_designs: int, seed: int = 1) -> dict[str, Any]:
     mesh = standard_mesh(wing.planform)
     t0 = time.perf_counter()
     basis = build_basis_for_wing(wing, 25, 4, 0.9999, 8)
-    roms = train_shapes(mesh, basis.shapes, PAPER_MACHS, rom_identity(), 2)
+    roms = train_shapes(mesh, basis.shapes, PAPER_MACHS, rom_identity("uvlm"), 2)  # discrete ARX ROMs (dt_star)
     t_train = time.perf_counter() - t0
     designs = random_designs(wing, n_designs, seed=seed)
     omegas, gammas = [], []
