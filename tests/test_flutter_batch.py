@@ -112,10 +112,10 @@ def test_batch_shares_the_eigen_solves(designs):
     basis, modals, roms = designs
     rom, c_ref = roms[0.79]
     pairs = [(m.omega, to_modal(rom, np.linalg.lstsq(basis, m.shapes, rcond=None)[0])) for m in modals]
-    batch_mod.STATS.__init__()
+    batch_mod.STATS.reset()
     flutter_batch(pairs, c_ref, 0.79, **FLUTTER_OPTIONS)
     calls_b, mats_b = batch_mod.STATS.eig_calls, batch_mod.STATS.matrices
-    batch_mod.STATS.__init__()
+    batch_mod.STATS.reset()
     for om, aero in pairs:
         flutter_analysis(om, aero, c_ref, 0.79, **FLUTTER_OPTIONS)
     assert mats_b == batch_mod.STATS.matrices

@@ -33,6 +33,10 @@ class SolveStats:
     newton_roots: int = 0
     rounds: int = 0
 
+    def reset(self) -> None:
+        """All counters back to 0."""
+        self.matrices = self.eig_calls = self.newton_roots = self.rounds = 0
+
 
 STATS = SolveStats()  # process-wide counters (benchmarks read and reset them)
 
