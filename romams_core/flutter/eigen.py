@@ -110,6 +110,8 @@ def struct_vectors(
     sigma_(k-1) / sigma_min, i.e. to rounding, since s is an eigenvalue; likewise eta from the rows (both from one
     batched inverse of T, which is then dominated by xi eta^H / sigma_min). LAPACK lists
     a complex pair consecutively, positive imaginary part first; the second member takes the conjugate vector.
+    A root exactly on an aero pole (an aero state the structure neither drives nor sees, e.g. the extra copies of
+    a repeated RFA pole) is a pure aero root: structural part 0, content 0, lag root (as its full eigenvector).
     None when ill-defined (non-finite, T exactly singular): the caller then uses the full eigenvectors.
     """
     assert m.lam_a is not None and m.res is not None
@@ -121,7 +123,11 @@ def struct_vectors(
     with np.errstate(all="ignore"):
         vc = (v / m.c_ref)[rows]
         r = 1.0 / ((ss / vc)[:, None] - m.lam_a)  # vc / (s - vc lam_i) = 1 / (s* - lam_i) [M, na]
-        near = (np.abs(r) > m.near_r).any(axis=1)  # |s* - lam_i| < LAG_NEAR |lam_i| for some aero pole i
+        # a root exactly on an aero pole is an aero state the structure does not drive or see (a repeated pole of
+        # an RFA ROM has more copies than modes): a pure aero root, structural part 0, content 0, a lag root
+        on_pole = ~np.isfinite(r).all(axis=1)
+        r[on_pole] = 0.0
+        near = (np.abs(r) > m.near_r).any(axis=1) | on_pole  # |s* - lam_i| < LAG_NEAR |lam_i| for some pole i
         rr = np.concatenate([r, r * r]) @ m.res  # [2M, k*k]: H - D, and -vc dH/ds
         t = (m.d.ravel() + rr[:nm]) * (-q[rows])[:, None]
         g = 2.0 * m.zeta * m.omega
@@ -145,6 +151,8 @@ def struct_vectors(
         dta = rr[nm:].reshape(-1, k, k) * (q[rows] / vc)[:, None, None]  # -q dH_lag/ds (the aero states' part)
         pa = np.abs((zc[:, None, :] @ (dta @ y[:, :, None]))[:, 0, 0])
         cont = ps / (ps + pa)
+        x[on_pole] = 0.0
+        cont[on_pole] = 0.0
     if not (np.isfinite(x).all() and np.isfinite(cont).all()):
         return None
     lagm = np.zeros(lam.shape, bool)
