@@ -85,11 +85,12 @@ def _with_vectors(r: EigRequest, lam: np.ndarray) -> EigData:
 
 
 def _answer_roots(reqs: Sequence[RootRequest]) -> list[complex | None]:
-    """Newton roots of every request; requests of one shape (k, na, with or without D1/D2) iterated together."""
+    """Newton roots of every request; requests of one shape (k modes, number of aero poles) iterated together."""
     out: list[complex | None] = [None] * len(reqs)
     groups: dict[tuple[int, int], list[int]] = {}
     for i, r in enumerate(reqs):
-        groups.setdefault((r.model.k, r.model.na), []).append(i)
+        assert r.model.lam_a is not None
+        groups.setdefault((r.model.k, r.model.lam_a.size), []).append(i)
     for idx in groups.values():
         for i, s in zip(idx, newton_roots([reqs[i] for i in idx]), strict=True):
             out[i] = s
