@@ -11,7 +11,8 @@ Modules:
 
 - ``inputs``: input checks (SWEEPS, COUPLINGS, check_flutter_inputs, the aero model's shapes);
 - ``model``: aero preparation (cached per ROM), the Tustin / zero-order-hold coupled model;
-- ``eigen``: batched eigen-solves with structural vectors and structural content, Newton roots of det T(s);
+- ``eigen``: batched eigen-solves with structural vectors and structural content;
+- ``newton``: Newton roots of det T(s), many requests iterated together;
 - ``sweeps``: the constant-density, constant-speed and matched parametrizations p -> (V, rho);
 - ``tracking``: continuation of the structural branches with adaptive refinement and lag-root rejection;
 - ``crossing``: the first Re(s) = 0 crossing on a structural branch, refined with brentq;

@@ -1,7 +1,7 @@
 """Many flutter searches run together: one batched eigen-solve per sweep step across all of them.
 
 A search is written as a generator (``analysis.flutter_search``, ``tracking.Tracker``, ``crossing``): where it
-needs eigen-data it yields an ``eigen.EigRequest`` (sweep points of its model) or an ``eigen.RootRequest`` (a
+needs eigen-data it yields an ``eigen.EigRequest`` (sweep points of its model) or a ``newton.RootRequest`` (a
 Newton root of det T(s)) and receives the answer. ``run_searches`` drives any number of such generators in
 lockstep rounds: every round collects the one pending request of each search, stacks all coupled matrices of
 one size into a single ``numpy.linalg.eigvals`` / ``eig`` call and all Newton requests of one shape into one
@@ -18,8 +18,9 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from .eigen import EigData, EigRequest, Request, RootRequest, eig_batch, newton_roots, struct_vectors
+from .eigen import EigData, EigRequest, eig_batch, struct_vectors
 from .eigen import _tustin_matrices as tustin_matrices
+from .newton import Request, RootRequest, newton_roots
 
 T = TypeVar("T")
 

@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .eigen import EigData, NoRoot, RootRequest
+from .eigen import EigData
+from .newton import NoRoot, RootRequest
 from .tracking import G_UNSTABLE, Branches, Path, Solve, Tracker
 
 BRENTQ_MAXITER = 100  # scipy.optimize.brentq's default

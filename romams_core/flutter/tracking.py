@@ -30,8 +30,9 @@ from typing import Any, TypeVar
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .eigen import EigData, EigRequest, Request
+from .eigen import EigData, EigRequest
 from .model import Model
+from .newton import Request
 from .sweeps import Sweep
 
 MAC_MIN = 0.8  # assigned MAC below this: ambiguous step
