@@ -459,6 +459,20 @@ def sub_benchmarks() -> dict[str, Any]:
     return out
 
 
+def batched_keys(out: dict[str, Any], models: dict[str, Any], quick: bool) -> None:
+    """batched_structure_ms, batched_over_eig (needs eig_calibration_ms in ``out``) and worker_rss_growth_pct."""
+    bs = batched_structure(models, n_batches=2 if quick else 5)
+    out["batched_structure_ms"] = bs["batched_structure_ms"]
+    out["batched_over_eig"] = bs["batched_structure_ms"] / out["eig_calibration_ms"]
+    out["batched_structure"] = bs
+    log(f"batched_structure_ms = {bs['batched_structure_ms']:.1f}, {bs['eigen_solves_per_mach']:.1f} eigen-solves "
+        "per Mach")
+    rg = rss_growth(models, n_designs=640 if quick else 10_000)
+    out["worker_rss_growth_pct"] = rg["worker_rss_growth_pct"]
+    out["worker_rss"] = rg
+    log(f"worker_rss_growth_pct = {rg['worker_rss_growth_pct']:.2f} over {rg['n_designs']} designs")
+
+
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Run the benchmarks and print one JSON object."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -485,16 +499,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     out["structure_eval_over_eig"] = se["structure_eval_ms"] / out["eig_calibration_ms"]
     out["structure_eval"] = se
     log(f"structure_eval_ms = {se['structure_eval_ms']:.1f}")
-    bs = batched_structure(models, n_batches=2 if quick else 5)
-    out["batched_structure_ms"] = bs["batched_structure_ms"]
-    out["batched_over_eig"] = bs["batched_structure_ms"] / out["eig_calibration_ms"]
-    out["batched_structure"] = bs
-    log(f"batched_structure_ms = {bs['batched_structure_ms']:.1f}, {bs['eigen_solves_per_mach']:.1f} eigen-solves "
-        "per Mach")
-    rg = rss_growth(models, n_designs=640 if quick else 10_000)
-    out["worker_rss_growth_pct"] = rg["worker_rss_growth_pct"]
-    out["worker_rss"] = rg
-    log(f"worker_rss_growth_pct = {rg['worker_rss_growth_pct']:.2f} over {rg['n_designs']} designs")
+    batched_keys(out, models, quick)
     pms = rom_pms_cost(models, n_designs=1 if quick else 3, ams_ms=se["structure_eval_ms"])
     out["rom_pms_over_rom_ams"] = pms["rom_pms_over_rom_ams"]
     out["rom_pms"] = pms
