@@ -9,7 +9,7 @@ and per-structure CPU times of the flutter searches; ``structure`` times the who
 deviation per field, mode and SDOFF mismatches). Usage:
 
     python -m benchmarks.flutter_regression build  [--fixture F.npz] [--designs 30]
-    python -m benchmarks.flutter_regression record [--fixture F.npz] --out R.json [--repeat 3]
+    python -m benchmarks.flutter_regression record [--fixture F.npz] --out R.json [--repeat 3] [--batched]
     python -m benchmarks.flutter_regression structure [--fixture F.npz] [--repeat 3]
     python -m benchmarks.flutter_regression compare REF.json NEW.json
 """
@@ -54,7 +54,7 @@ def build(fixture: Path, n_designs: int, seed: int = 1) -> dict[str, Any]:
     mesh = standard_mesh(wing.planform)
     t0 = time.perf_counter()
     basis = build_basis_for_wing(wing, 25, 4, 0.9999, 8)
-    roms = train_shapes(mesh, basis.shapes, PAPER_MACHS, rom_identity(), 2)
+    roms = train_shapes(mesh, basis.shapes, PAPER_MACHS, rom_identity("uvlm"), 2)  # discrete ARX ROMs (dt_star)
     t_train = time.perf_counter() - t0
     designs = random_designs(wing, n_designs, seed=seed)
     omegas, gammas = [], []
@@ -91,21 +91,34 @@ def _row(r: Any) -> dict[str, Any]:
             **{f: (None if getattr(r, f) is None else float(getattr(r, f))) for f in FIELDS}}
 
 
-def record(fixture: Path, repeat: int = 1, cases: list[str] | None = None) -> dict[str, Any]:
-    """Flutter points of every design x Mach x case and per-structure CPU time medians (ms)."""
-    from romams_core.flutter import flutter_analysis
+def record(fixture: Path, repeat: int = 1, cases: list[str] | None = None, batched: bool = False) -> dict[str, Any]:
+    """Flutter points of every design x Mach x case and per-structure CPU time medians (ms).
+
+    ``batched``: at each Mach the searches of all designs run as one batch (``flutter_batch``); the CPU time of a
+    structure is then the batch's time over the number of designs.
+    """
+    from romams_core.flutter import flutter_analysis, flutter_batch
     from romams_core.statespace import to_modal
 
     machs, omega, gamma, roms, c_ref = load(fixture)
-    out: dict[str, Any] = {"fixture": str(fixture), "designs": int(omega.shape[0]), "machs": machs.tolist(),
-                           "cases": {}}
+    n = omega.shape[0]
+    out: dict[str, Any] = {"fixture": str(fixture), "designs": int(n), "machs": machs.tolist(), "cases": {},
+                           "batched": batched}
     for name, kw in CASES:
         if cases and name not in cases:
             continue
         rows: list[list[dict[str, Any]]] = []
         cpu = []
         for rep in range(repeat):
-            for i in range(omega.shape[0]):
+            if batched:
+                t0 = time.process_time()
+                res_m = [flutter_batch([(omega[i], to_modal(roms[j], gamma[i])) for i in range(n)], float(c_ref[j]),
+                                       float(machs[j]), **kw) for j in range(machs.size)]
+                cpu.append((time.process_time() - t0) / n)
+                if rep == 0:
+                    rows = [[_row(res_m[j][i]) for j in range(machs.size)] for i in range(n)]
+                continue
+            for i in range(n):
                 t0 = time.process_time()
                 res = [flutter_analysis(omega[i], to_modal(roms[j], gamma[i]), float(c_ref[j]), float(machs[j]), **kw)
                        for j in range(machs.size)]
@@ -191,6 +204,7 @@ def main() -> None:
     r.add_argument("--out", type=Path, required=True)
     r.add_argument("--repeat", type=int, default=1)
     r.add_argument("--case", action="append", default=None, help="only these cases (repeatable)")
+    r.add_argument("--batched", action="store_true", help="each Mach's searches of all designs as one batch")
     st = sub.add_parser("structure")
     st.add_argument("--fixture", type=Path, default=DEFAULT_FIXTURE)
     st.add_argument("--repeat", type=int, default=3)
@@ -201,7 +215,7 @@ def main() -> None:
     if args.cmd == "build":
         print(json.dumps(build(args.fixture, args.designs), indent=2))
     elif args.cmd == "record":
-        res = record(args.fixture, args.repeat, args.case)
+        res = record(args.fixture, args.repeat, args.case, args.batched)
         args.out.write_text(json.dumps(res))
         print(json.dumps({k: {kk: vv for kk, vv in v.items() if kk != "rows"} for k, v in res["cases"].items()},
                          indent=2))

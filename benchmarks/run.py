@@ -8,6 +8,15 @@
   basis, ROM to modal coordinates, flutter search, envelope), in process, one core, median over
   random designs; the basis and the ROMs of ``--solver`` (default dlm: rational-function ROMs; uvlm: ARX)
   are built in process first (their timings are reported).
+- batched_structure_ms: one structure inside a batch of 30 (a DE generation): modal analysis per design and the
+  flutter searches of the 30 structures at each Mach run together (``evaluate_structures``), CPU time of one core
+  per batch / 30, median over batches (2 with --quick, 5 without); batched_over_eig = batched_structure_ms /
+  eig_calibration_ms. ``batched_structure.eigen_solves_per_mach``: full eigen-solves per search.
+- worker_rss_growth_pct: RSS growth (%) of this process evaluating designs in chunks through the evaluation use
+  case a worker's flutter_chunk runs (``evaluate_designs_summary``): 10 000 designs, 640 with --quick; RSS after
+  the first chunk against after the last.
+- de_4530_http_s (not with --quick): the DE of optimization_wall_s alone (150 generations x 30 = 4 530
+  structures over HTTP, 2 workers), setup excluded.
 - rom_pms_over_rom_ams: cost of one structure by ROM-PMS (ROMs trained on the structure's own modes at the
   5 Machs, then the same flutter analysis) over its ROM-AMS cost, same run; with the flutter-speed
   differences between the two. With the dlm, the factorized AICs of the basis training are reused, so this is
@@ -59,7 +68,8 @@ def _ident() -> dict[str, Any]:
 
     name = SOLVER["name"]
     return rom_identity(name, options=TRAIN_OPTIONS if name == "uvlm" else None)
-TARGETS = {"structure_eval_ms": 50.0, "optimization_wall_s": 600.0, "training_s_per_mach": 60.0}
+TARGETS = {"structure_eval_ms": 20.0, "batched_structure_ms": 5.0, "de_4530_http_s": 60.0,
+           "worker_rss_growth_pct": 10.0, "optimization_wall_s": 600.0, "training_s_per_mach": 60.0}
 
 
 def log(msg: str) -> None:
@@ -138,6 +148,80 @@ def structure_eval(models: dict[str, Any], n_designs: int, seed: int = 1) -> dic
             "n_designs": n_designs, "machs": sorted(roms), "n_basis": int(basis.n_basis),
             "rom_states": [int(r.ss.n_states) for _, r in sorted(roms.items())],
             "basis_s": models["basis_s"], "training_s_per_mach": models["train_s"]}
+
+
+def batched_structure(models: dict[str, Any], n_batches: int, batch: int = 30, seed: int = 3) -> dict[str, Any]:
+    """One structure inside a batch of ``batch`` (a DE generation): modal analysis per design, then the flutter
+    searches of the whole batch at every Mach together (``evaluate_structures``); CPU time of one core per batch
+    over ``batch``, median over ``n_batches`` batches (ms). Also the full eigen-solves per search (per Mach)."""
+    from romams_core.basis import random_designs
+    from romams_core.evaluate import evaluate_structures
+    from romams_core.flutter import batch as flutter_batch_mod
+    from romams_core.structure.modal import modal_analysis
+
+    wing, mesh, basis, roms = models["wing"], models["mesh"], models["basis"], models["roms"]
+    zeta = wing.modal_damping or None
+    designs = random_designs(wing, batch * (n_batches + 1), seed=seed)
+    per, modal_ms, wall, solves = [], [], [], []
+    for b in range(n_batches + 1):  # the first batch warms up
+        chunk = designs[b * batch:(b + 1) * batch]
+        stats = flutter_batch_mod.STATS
+        stats.reset()
+        w0, t0 = time.perf_counter(), time.process_time()
+        modals = [modal_analysis(wing, x, 4, mesh) for x in chunk]
+        t1 = time.process_time()
+        evaluate_structures(modals, basis.shapes, roms, mac_threshold=basis.mac_threshold, zeta=zeta)
+        t2, w2 = time.process_time(), time.perf_counter()
+        if b:
+            per.append(1e3 * (t2 - t0) / batch)
+            modal_ms.append(1e3 * (t1 - t0) / batch)
+            wall.append(1e3 * (w2 - w0) / batch)
+            solves.append(stats.matrices / (batch * len(roms)))
+    return {"batched_structure_ms": float(np.median(per)), "modal_ms": float(np.median(modal_ms)),
+            "flutter_all_machs_ms": float(np.median(per) - np.median(modal_ms)),
+            "wall_ms_median": float(np.median(wall)), "batch": batch, "n_batches": n_batches,
+            "eigen_solves_per_mach": float(np.mean(solves)),
+            "clock": "CPU time of this single-threaded process over the batch / batch size"}
+
+
+def _rss_mb() -> float:
+    """Resident set size (VmRSS, MB) of this process."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    return math.nan
+
+
+def rss_growth(models: dict[str, Any], n_designs: int, seed: int = 4) -> dict[str, Any]:
+    """RSS growth (%) of this process evaluating ``n_designs`` random designs in chunks, as a worker's flutter_chunk
+    does (the evaluation use case ``evaluate_designs_summary``, chunks of the service's ``batch_chunk``): VmRSS after
+    the first chunk (caches warm) against after the last. The worker's own LRU result cache (bounded by
+    ``result_cache_size``) is not part of it."""
+    from romams.services.evaluation import Models, evaluate_designs_summary
+    from romams.settings import Settings
+    from romams_core.basis import random_designs
+
+    chunk = int(Settings().batch_chunk)
+    ev = Models(0, models["wing"], models["mesh"], 0, models["basis"],
+                {m: (i, r) for i, (m, r) in enumerate(sorted(models["roms"].items()))})
+    cache: dict[Any, Any] = {}
+
+    def memo(key: Any, load: Any) -> Any:
+        if key not in cache:
+            cache[key] = load()
+        return cache[key]
+
+    designs = random_designs(models["wing"], n_designs, seed=seed).tolist()
+    rss, errors = [], 0
+    t0 = time.perf_counter()
+    for i in range(0, n_designs, chunk):
+        out = evaluate_designs_summary(ev, designs[i:i + chunk], cache=memo)
+        errors += sum("error" in r for r in out)
+        rss.append(_rss_mb())
+    base = rss[0]
+    return {"worker_rss_growth_pct": 100.0 * (rss[-1] - base) / base, "rss_mb_after_first_chunk": base,
+            "rss_mb_end": rss[-1], "rss_mb_max": max(rss), "n_designs": n_designs, "chunk": chunk,
+            "errors": errors, "wall_s": time.perf_counter() - t0}
 
 
 def rom_pms_cost(models: dict[str, Any], n_designs: int, ams_ms: float, seed: int = 2) -> dict[str, Any]:
@@ -375,6 +459,20 @@ def sub_benchmarks() -> dict[str, Any]:
     return out
 
 
+def batched_keys(out: dict[str, Any], models: dict[str, Any], quick: bool) -> None:
+    """batched_structure_ms, batched_over_eig (needs eig_calibration_ms in ``out``) and worker_rss_growth_pct."""
+    bs = batched_structure(models, n_batches=2 if quick else 5)
+    out["batched_structure_ms"] = bs["batched_structure_ms"]
+    out["batched_over_eig"] = bs["batched_structure_ms"] / out["eig_calibration_ms"]
+    out["batched_structure"] = bs
+    log(f"batched_structure_ms = {bs['batched_structure_ms']:.1f}, {bs['eigen_solves_per_mach']:.1f} eigen-solves "
+        "per Mach")
+    rg = rss_growth(models, n_designs=640 if quick else 10_000)
+    out["worker_rss_growth_pct"] = rg["worker_rss_growth_pct"]
+    out["worker_rss"] = rg
+    log(f"worker_rss_growth_pct = {rg['worker_rss_growth_pct']:.2f} over {rg['n_designs']} designs")
+
+
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Run the benchmarks and print one JSON object."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -401,6 +499,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     out["structure_eval_over_eig"] = se["structure_eval_ms"] / out["eig_calibration_ms"]
     out["structure_eval"] = se
     log(f"structure_eval_ms = {se['structure_eval_ms']:.1f}")
+    batched_keys(out, models, quick)
     pms = rom_pms_cost(models, n_designs=1 if quick else 3, ams_ms=se["structure_eval_ms"])
     out["rom_pms_over_rom_ams"] = pms["rom_pms_over_rom_ams"]
     out["rom_pms"] = pms
@@ -440,6 +539,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 log(f"optimization: fresh service, DE {args.popsize} x {args.generations} generations")
                 opt = optimization(Path(tmp) / "opt", args.generations, args.popsize)
                 out["optimization_wall_s"] = opt["optimization_wall_s"]
+                out["de_4530_http_s"] = opt["de_s"]  # the DE alone (setup excluded); 4 530 structures by default
                 out["optimization"] = opt
                 log(f"optimization_wall_s = {opt['optimization_wall_s']:.1f}")
     if args.all:

@@ -10,7 +10,7 @@ mode fitted with MAC >= mac_threshold.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,7 +26,7 @@ from romams_core.envelope import (
     envelope_from_results,
 )
 from romams_core.errors import InputError
-from romams_core.flutter import FlutterResult, flutter_analysis
+from romams_core.flutter import FlutterResult, flutter_batch
 from romams_core.statespace import to_modal
 
 
@@ -61,8 +61,19 @@ def _rom_parts(rom: Any, mach: float) -> tuple[Any, float]:
     raise InputError(f"roms[{mach}]", f"needs .ss and .c_ref (a trained ROM), got {type(rom).__name__}")
 
 
-def evaluate_structure(
-    modal: Any,
+def evaluate_structure(modal: Any, basis_shapes: np.ndarray, roms: Mapping[float, Any],
+                       **options: Any) -> StructureEvaluation:
+    """Evaluate a structure (``modal``: .omega [k] rad/s, .shapes [N, k], .mass_kg) with ROMs {mach: rom}.
+
+    ``basis_shapes`` [N, m] are the basis the ROMs were trained on; ``options`` are the keywords of
+    ``evaluate_structures`` (sweep, coupling, zeta, mac_threshold, benchmark, margin, altitude_range_m,
+    flutter_options). The batch of one. Returns a StructureEvaluation.
+    """
+    return evaluate_structures([modal], basis_shapes, roms, **options)[0]
+
+
+def evaluate_structures(
+    modals: Sequence[Any],
     basis_shapes: np.ndarray,
     roms: Mapping[float, Any],
     *,
@@ -74,39 +85,54 @@ def evaluate_structure(
     margin: float = DEFAULT_MARGIN,
     altitude_range_m: tuple[float, float] = DEFAULT_ALTITUDE_RANGE_M,
     flutter_options: Mapping[str, Any] | None = None,
-) -> StructureEvaluation:
-    """Evaluate a structure (``modal``: .omega [k] rad/s, .shapes [N, k], .mass_kg) with ROMs {mach: rom}.
+) -> list[StructureEvaluation]:
+    """Evaluate structures (each: .omega [k] rad/s, .shapes [N, k], .mass_kg) with ROMs {mach: rom}, together.
 
-    ``basis_shapes`` [N, m] are the basis the ROMs were trained on; ``flutter_options`` go to
-    flutter_analysis (e.g. altitude_ref_m, q_max, n_points). Mach 0 (incompressible) always uses the
-    constant-density sweep and is left out of the flight envelope. Returns a StructureEvaluation.
+    ``basis_shapes`` [N, m] are the basis the ROMs were trained on; ``flutter_options`` go to the flutter
+    search (e.g. altitude_ref_m, q_max, n_points). At every Mach the searches of all structures run as one
+    batch (``flutter_batch``: one stacked eigen-solve per sweep step); the results equal one-at-a-time
+    evaluations. Mach 0 (incompressible) always uses the constant-density sweep and is left out of the flight
+    envelope. Returns one StructureEvaluation per structure, in order.
     """
     if not roms:
         raise InputError("roms", "need at least one Mach number")
-    omega = np.asarray(getattr(modal, "omega", None), dtype=float)
-    shapes = np.asarray(getattr(modal, "shapes", None), dtype=float)
-    if omega.ndim != 1 or omega.size == 0:
-        raise InputError("modal.omega", "must be a 1-D array of circular frequencies (rad/s)")
-    if shapes.ndim != 2 or shapes.shape[1] != omega.size:
-        raise InputError("modal.shapes", f"must be [N, {omega.size}], got {shapes.shape}")
-    mass = float(getattr(modal, "mass_kg", math.nan))
-    proj = project(basis_shapes, shapes, mac_threshold)
+    inputs = [_structure_inputs(m, basis_shapes, mac_threshold) for m in modals]
     opts = dict(flutter_options or {})
     for key in ("sweep", "coupling", "zeta"):
         if key in opts:
             raise InputError("flutter_options", f"pass {key!r} as a keyword of evaluate_structure")
     machs = sorted(float(m) for m in roms)
     by_mach = {float(m): r for m, r in roms.items()}
-    results: list[FlutterResult] = []
+    per_mach: list[list[FlutterResult]] = []
     for mach in machs:
         ss, c_ref = _rom_parts(by_mach[mach], mach)
-        modal_ss = to_modal(ss, proj.gamma)
         sweep_m = INCOMPRESSIBLE_SWEEP if mach == 0.0 else sweep  # no constant speed or Mach-matched flight at M 0
         kw = dict(opts, altitude_range_m=opts.get("altitude_range_m", altitude_range_m)) if sweep_m == "matched" \
             else opts
         k_band = getattr(by_mach[mach], "k_max", None)  # the identified band, when the ROM carries it
-        results.append(flutter_analysis(omega, modal_ss, c_ref, mach, sweep=sweep_m, coupling=coupling, zeta=zeta,
-                                        k_band=None if k_band is None else float(k_band), **kw))
+        designs = [(om, to_modal(ss, proj.gamma)) for om, _, proj in inputs]
+        per_mach.append(flutter_batch(designs, c_ref, mach, sweep=sweep_m, coupling=coupling, zeta=zeta,
+                                      k_band=None if k_band is None else float(k_band), **kw))
+    return [_assemble(inputs[i], machs, [r[i] for r in per_mach], benchmark, margin, altitude_range_m,
+                      mac_threshold) for i in range(len(inputs))]
+
+
+def _structure_inputs(modal: Any, basis_shapes: np.ndarray, mac_threshold: float) -> tuple[np.ndarray, float, Any]:
+    """(omega [k] rad/s, mass kg, projection on the basis) of a structure; InputError naming the field."""
+    omega = np.asarray(getattr(modal, "omega", None), dtype=float)
+    shapes = np.asarray(getattr(modal, "shapes", None), dtype=float)
+    if omega.ndim != 1 or omega.size == 0:
+        raise InputError("modal.omega", "must be a 1-D array of circular frequencies (rad/s)")
+    if shapes.ndim != 2 or shapes.shape[1] != omega.size:
+        raise InputError("modal.shapes", f"must be [N, {omega.size}], got {shapes.shape}")
+    return omega, float(getattr(modal, "mass_kg", math.nan)), project(basis_shapes, shapes, mac_threshold)
+
+
+def _assemble(inputs: tuple[np.ndarray, float, Any], machs: list[float], results: list[FlutterResult],
+              benchmark: Envelope | None, margin: float, altitude_range_m: tuple[float, float],
+              mac_threshold: float) -> StructureEvaluation:
+    """StructureEvaluation of one structure from its flutter results per Mach (envelope, comparison, constraints)."""
+    omega, mass, proj = inputs
     flying = [r for r in results if r.mach > 0.0]  # Mach 0 (incompressible) has no flight envelope
     env = envelope_from_results(flying, margin, altitude_range_m) if flying else Envelope(
         np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), [], float(margin), np.asarray(altitude_range_m, float))

@@ -17,7 +17,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from romams_core.flutter import eigen, flutter_analysis, model
+from romams_core.flutter import eigen, flutter_analysis, model, newton
+from romams_core.statespace import ContinuousSS, to_modal
 from romams_core.typical_section import TypicalSection, jones_discrete, modes
 
 OMEGA4 = np.array([60.0, 150.0, 260.0, 420.0])
@@ -122,7 +123,7 @@ def test_newton_root_converges_to_an_eigenvalue():
     for i in range(v.size):
         osc = lam[i][(lam[i].imag > 10.0) & (np.abs(lam[i]) < 600.0)]
         for s_true in osc:
-            s = eigen.newton_root(m, v[i] / m.c_ref, q[i], s_true * (1.0 + 0.01j), abs(s_true))
+            s = newton.newton_root(m, v[i] / m.c_ref, q[i], s_true * (1.0 + 0.01j), abs(s_true))
             assert abs(s - s_true) <= 1e-10 * abs(s_true)
 
 
@@ -138,3 +139,36 @@ def test_aero_preparation_is_cached_per_matrix_and_checks_repeat():
     for _ in range(2):
         with pytest.raises(ValueError, match="unstable"):
             model.aero_prep(bad, 0.1, "tustin")
+
+
+def rfa_rom(seed: int, m: int = 6, lags: tuple[float, ...] = (0.2, 0.6, 1.5)) -> tuple[ContinuousSS, np.ndarray]:
+    """A rational-function ROM in m basis coordinates (each lag pole repeated m times, D1, D2 terms) and a random
+    projection gamma [m, 4]: as the DLM ROMs, the modal model has aero states the 4 modes neither drive nor see."""
+    rng = np.random.default_rng(seed)
+    a = np.kron(np.diag(-np.asarray(lags)), np.eye(m))
+    b = np.kron(np.ones((len(lags), 1)), np.eye(m))
+    return ContinuousSS(A=a, B=b, C=0.3 * rng.standard_normal((m, a.shape[0])), D=0.5 * rng.standard_normal((m, m)),
+                        D1=0.2 * rng.standard_normal((m, m)), D2=0.01 * rng.standard_normal((m, m))), \
+        rng.standard_normal((m, 4))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_rfa_model_with_repeated_poles_fast_equals_reference(monkeypatch, seed):
+    """The fast path couples the minimal realization (the aero states the 4 modes neither drive nor see removed)
+    and takes a root exactly on an aero pole as a pure aero root (structural part 0, content 0, lag root) instead
+    of sending the whole sweep to the full eigenvectors; the search equals the reference path (full model)."""
+    ss, gamma = rfa_rom(seed)
+    aero = to_modal(ss, gamma)
+    m = model.make_model(OMEGA4, np.full(4, 0.01), 1.0, aero, "tustin")
+    v, q = np.array([240.0, 240.0]), np.array([2000.0, 9000.0])
+    lam = np.linalg.eigvals(eigen._tustin_matrices(m, v, q))
+    assert m.lam_a is not None
+    on_pole = (v / m.c_ref)[:, None] * m.lam_a[None, :1]  # what LAPACK may return for such a state, exactly
+    sv = eigen.struct_vectors(m, np.concatenate([lam, on_pole], axis=1), v, q)
+    assert sv is not None
+    assert np.all(sv[0][:, :, -1] == 0.0) and np.all(sv[1][:, -1] == 0.0) and np.all(sv[2][:, -1])
+    assert m.na == 12 and aero.A.shape[0] == 18  # minimal realization: 3 lag poles x 4 modes (not x 6 shapes)
+    fast, ref = both_paths(monkeypatch, lambda: flutter_analysis(OMEGA4, aero, 1.0, 0.8, zeta=0.01, a_ref=300.0,
+                                                                  rho_ref=1.0))
+    assert ref.flutter_found
+    assert_same(fast, ref)

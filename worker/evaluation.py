@@ -14,6 +14,7 @@ from romams.jobs import JobFailed, Outcome, ProgressFn, fanout_outcome, store_an
 from romams.persistence import JobStatus, UnitOfWork
 from romams.services.evaluation import (
     Models,
+    evaluate_designs_summary,
     evaluate_structure_summary,
     evaluation_key,
     pms_summary,
@@ -138,21 +139,18 @@ def flutter_chunk(job_id: str) -> None:
 
     def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
         p = job["params"]
-        out = []
         designs = p["designs"]
-        condition = condition_of(p)
-        for i, d in enumerate(designs):
-            h = batch_key(job["wing_id"], p, d)
-            summary = RESULTS.get(h)
-            if summary is None:
-                try:
-                    summary, _ = evaluate(job["wing_id"], p["basis_id"], p["rom_ids"], d, None, condition)
-                except ValueError as exc:  # a design the structure model rejects: reported per design
-                    summary = {"error": str(exc)}
-                RESULTS.put(h, summary)
-            out.append(summary)
-            if (i + 1) % 8 == 0:
-                progress((i + 1) / len(designs), f"{i + 1}/{len(designs)} designs")
+        keys = [batch_key(job["wing_id"], p, d) for d in designs]
+        out = [RESULTS.get(h) for h in keys]
+        todo = [i for i, s in enumerate(out) if s is None]
+        if todo:  # the designs not seen before, evaluated together (one batched flutter search per Mach)
+            models = models_for(job["wing_id"], p["basis_id"], p["rom_ids"])
+            fresh = evaluate_designs_summary(models, [designs[i] for i in todo], condition=condition_of(p),
+                                             cache=OBJECTS.get_or_load)
+            for i, summary in zip(todo, fresh, strict=True):
+                RESULTS.put(keys[i], summary)
+                out[i] = summary
+        progress(1.0, f"{len(designs)}/{len(designs)} designs")
         return {"index": p["index"], "results": out}
 
     run(job_id, body)

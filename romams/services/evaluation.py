@@ -15,7 +15,7 @@ the same structure gives the same numbers and the same keys wherever it is asked
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -92,17 +92,64 @@ def evaluate(models: Models, modal: Any, condition: FlightCondition = DEFAULT_CO
 
     ``own_modes`` (ROM-PMS): the ROMs were trained on this structure's own modes, so its shapes are the basis.
     """
-    from romams_core.evaluate import evaluate_structure
-
     shapes = modal.shapes if own_modes else models.basis.shapes
+    return evaluate_many(models, [modal], condition, benchmark=benchmark, shapes=shapes)[0]
+
+
+def evaluate_many(models: Models, modals: Sequence[Any], condition: FlightCondition = DEFAULT_CONDITION, *,
+                  benchmark: Any = None, shapes: Any = None) -> list[Any]:
+    """StructureEvaluations of several structures with the basis ROMs of ``models``, their flutter searches run as
+    one batch per Mach (``romams_core.evaluate.evaluate_structures``; equal to one-at-a-time evaluations).
+
+    ``shapes``: the basis the ROMs were trained on (default the models' basis). InvalidInput naming the field.
+    """
+    from romams_core.evaluate import evaluate_structures
+
     roms = {float(m): r for m, (_, r) in models.roms.items()}
     try:
-        return evaluate_structure(modal, shapes, roms, sweep=condition.sweep, coupling=condition.coupling,
-                                  zeta=damping_ratio(models.wing), benchmark=benchmark,
-                                  mac_threshold=float(models.basis.mac_threshold),
-                                  flutter_options=condition.flutter_options())
+        return evaluate_structures(modals, models.basis.shapes if shapes is None else shapes, roms,
+                                   sweep=condition.sweep, coupling=condition.coupling,
+                                   zeta=damping_ratio(models.wing), benchmark=benchmark,
+                                   mac_threshold=float(models.basis.mac_threshold),
+                                   flutter_options=condition.flutter_options())
     except InputError as exc:
         raise from_input_error(exc) from exc
+
+
+def evaluate_designs_summary(models: Models, designs: Sequence[Any], *,
+                             condition: FlightCondition = DEFAULT_CONDITION,
+                             cache: Callable[[tuple[Any, ...], Callable[[], Any]], Any] | None = None,
+                             ) -> list[dict[str, Any]]:
+    """The use case for a chunk of designs: the JSON summary of each (as ``evaluate_structure_summary``), or
+    {"error": message} for a design that is rejected. Modal analysis per design; the flutter searches of all
+    designs at each Mach run as one batch. Should the batch fail, the designs are evaluated one at a time, so that
+    the error is reported for the design that caused it.
+    """
+    try:
+        base = baseline_evaluation(models, condition, cache)
+    except ValueError as exc:  # the benchmark of every design: each reports it
+        return [{"error": str(exc)} for _ in designs]
+    bench = None if base is None else base.envelope
+    out: list[dict[str, Any]] = [{} for _ in designs]
+    modals, idx = [], []
+    for i, d in enumerate(designs):
+        try:
+            modals.append(structure_modal(models, d, None))
+            idx.append(i)
+        except ValueError as exc:  # a design the structure model rejects: reported per design
+            out[i] = {"error": str(exc)}
+    try:
+        results = evaluate_many(models, modals, condition, benchmark=bench)
+    except ValueError:
+        results = []
+        for modal in modals:
+            try:
+                results.append(evaluate(models, modal, condition, benchmark=bench))
+            except ValueError as exc:
+                results.append(exc)
+    for i, r in zip(idx, results, strict=True):
+        out[i] = {"error": str(r)} if isinstance(r, Exception) else summarize(r, models, condition)
+    return out
 
 
 def baseline_evaluation(models: Models, condition: FlightCondition = DEFAULT_CONDITION,

@@ -11,19 +11,21 @@ Modules:
 
 - ``inputs``: input checks (SWEEPS, COUPLINGS, check_flutter_inputs, the aero model's shapes);
 - ``model``: aero preparation (cached per ROM), the Tustin / zero-order-hold coupled model;
-- ``eigen``: batched eigen-solves with structural vectors and structural content, Newton roots of det T(s);
+- ``eigen``: batched eigen-solves with structural vectors and structural content;
+- ``newton``: Newton roots of det T(s), many requests iterated together;
 - ``sweeps``: the constant-density, constant-speed and matched parametrizations p -> (V, rho);
 - ``tracking``: continuation of the structural branches with adaptive refinement and lag-root rejection;
 - ``crossing``: the first Re(s) = 0 crossing on a structural branch, refined with brentq;
 - ``point``: modal shares, SDOFF single-mode check, frequency separation;
-- ``result``: FlutterResult; ``analysis``: flutter_analysis, the orchestrator.
+- ``result``: FlutterResult; ``analysis``: flutter_analysis and flutter_batch (many designs at one Mach);
+- ``batch``: runs many searches together, one batched eigen-solve per sweep step.
 
 The algorithm is documented in docs/flutter.md.
 """
 
 from romams_core.validation import finite_positive
 
-from .analysis import flutter_analysis
+from .analysis import flutter_analysis, flutter_batch
 from .inputs import COUPLINGS, SWEEPS, check_flutter_inputs
 from .model import tustin_to_continuous
 from .result import FlutterResult
@@ -37,5 +39,6 @@ __all__ = [
     "check_flutter_inputs",
     "finite_positive",
     "flutter_analysis",
+    "flutter_batch",
     "tustin_to_continuous",
 ]

@@ -1,85 +1,112 @@
-"""flutter_analysis: the flutter search at one Mach number (orchestrates model, sweep, tracking, crossing)."""
+"""flutter_analysis / flutter_batch: flutter searches at one Mach number (model, sweep, tracking, crossing)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from .batch import run_one, run_searches
 from .crossing import make_bracket, refine_crossing
 from .inputs import check_flutter_inputs, check_search_options
-from .model import make_model
+from .model import Model, make_model
 from .point import frequency_separation, modal_shares, single_mode_unstable
 from .result import FlutterResult, no_flutter_fields
 from .sweeps import DEFAULT_ALTITUDE_REF_M, Sweep, eas, make_sweep, resolve_reference
-from .tracking import Branches, Path, Tracker
+from .tracking import Branches, Path, Solve, Tracker
 
 
-def flutter_analysis(
-    omega: np.ndarray,
-    aero: Any,
-    c_ref: float,
-    mach: float,
-    *,
-    sweep: str = "constant-speed",
-    coupling: str = "tustin",
-    zeta: np.ndarray | float | None = None,
-    altitude_ref_m: float = DEFAULT_ALTITUDE_REF_M,
-    rho_ref: float | None = None,
-    a_ref: float | None = None,
-    v_max: float | None = None,
-    q_max: float | None = None,
-    altitude_range_m: tuple[float, float] = (0.0, 20_000.0),
-    n_points: int = 12,
-    sdoff_share: float = 0.9,
-    sdoff_q_factor: float = 1.1,
-    track_weight: float = 0.5,
-    rtol: float = 1e-4,
-    k_band: float | None = None,
-) -> FlutterResult:
+@dataclass(frozen=True)
+class _Search:
+    """A validated flutter search: model, sweep and options (``prepare_search``)."""
+
+    model: Model
+    sweep: Sweep
+    head: dict[str, Any]
+    n_points: int
+    sdoff_share: float
+    sdoff_q_factor: float
+    track_weight: float
+    rtol: float
+    k_band: float | None
+
+
+def flutter_analysis(omega: np.ndarray, aero: Any, c_ref: float, mach: float, **options: Any) -> FlutterResult:
     """Flutter search at one Mach number for structure ``omega`` [k] (rad/s) and modal aero ROM ``aero``.
 
     ``aero`` has A, B, C, D, dt_star (discrete, t* = t V / c_ref, inputs xi, outputs f = F / q); ``c_ref`` in m.
-    Reference state: rho_ref, a_ref default to ISA at ``altitude_ref_m`` (10 km). Ranges: ``v_max`` (m/s,
-    constant-density; default 3 M a_ref, at Mach 0 omega_max c_ref, see sweeps.default_v_max), ``q_max`` (Pa,
-    constant-speed; default 4 x 0.5 rho_ref (M a_ref)^2), ``altitude_range_m`` (matched). ``n_points`` coarse
-    sweep points (the tracker refines where needed, so the flutter point does not depend on it); the crossing
-    is refined with brentq to ``rtol`` relative. SDOFF when the flutter vector's largest modal share is
-    >= ``sdoff_share`` AND that mode alone is unstable at q <= ``sdoff_q_factor`` q_f. Reports the TRUE speed
-    ``v_flutter_m_s`` and the equivalent airspeed ``v_eas_m_s``; no flutter in range is a result with
-    flutter_found False. ``k_band`` (reduced frequency on c_ref / 2): the band the ROM was identified in; a
-    flutter point above it is flagged ``outside_band`` with a warning (a time-domain ROM is unconstrained
-    there: e.g. a constant-density sweep from V = 0 starts at k -> infinity). Invalid input raises
-    romams_core.errors.InputError naming the field.
+    ``options`` (keywords of ``prepare_search``): sweep ("constant-speed"), coupling ("tustin"), zeta, the
+    reference state (altitude_ref_m = 10 km, or rho_ref, a_ref), the ranges v_max (m/s, constant-density;
+    default 3 M a_ref, at Mach 0 omega_max c_ref), q_max (Pa, constant-speed; default 4 x 0.5 rho_ref (M a_ref)^2),
+    altitude_range_m (matched); n_points coarse sweep points (the tracker refines where needed, so the flutter
+    point does not depend on it); rtol of the crossing (brentq); SDOFF when the flutter vector's largest modal
+    share is >= sdoff_share AND that mode alone is unstable at q <= sdoff_q_factor q_f; k_band (reduced frequency
+    on c_ref / 2): a flutter point above the band the ROM was identified in is flagged ``outside_band``. Reports
+    the TRUE speed ``v_flutter_m_s`` and the equivalent airspeed ``v_eas_m_s``; no flutter in range is a result
+    with flutter_found False. Invalid input raises romams_core.errors.InputError naming the field. The same
+    search as one member of ``flutter_batch``.
     """
+    return run_one(flutter_search(prepare_search(omega, aero, c_ref, mach, **options)))
+
+
+def flutter_batch(designs: Sequence[tuple[np.ndarray, Any]], c_ref: float, mach: float,
+                  **options: Any) -> list[FlutterResult]:
+    """Flutter searches of many structures (omega [k] rad/s, modal aero ROM) at one Mach, run together.
+
+    Same options and results as ``flutter_analysis`` (equal to it design by design); every sweep step of all
+    designs is one batched eigen-solve (``batch.run_searches``). Every design is validated before any search runs.
+    """
+    searches = [prepare_search(om, aero, c_ref, mach, **options) for om, aero in designs]
+    return run_searches([flutter_search(s) for s in searches])
+
+
+def prepare_search(
+    omega: np.ndarray, aero: Any, c_ref: float, mach: float, *, sweep: str = "constant-speed",
+    coupling: str = "tustin", zeta: np.ndarray | float | None = None,
+    altitude_ref_m: float = DEFAULT_ALTITUDE_REF_M, rho_ref: float | None = None, a_ref: float | None = None,
+    v_max: float | None = None, q_max: float | None = None,
+    altitude_range_m: tuple[float, float] = (0.0, 20_000.0), n_points: int = 12, sdoff_share: float = 0.9,
+    sdoff_q_factor: float = 1.1, track_weight: float = 0.5, rtol: float = 1e-4, k_band: float | None = None,
+) -> _Search:
+    """The validated search of ``flutter_analysis`` (its docstring; InputError naming the field)."""
     om, zt, c_ref, mach = check_flutter_inputs(omega, zeta, c_ref, mach, sweep)
     check_search_options(coupling, n_points, sdoff_share, sdoff_q_factor, rtol)
     model = make_model(om, zt, c_ref, aero, coupling)
     rho_ref, a_ref, h_ref = resolve_reference(altitude_ref_m, rho_ref, a_ref)
     sw = make_sweep(sweep, mach, om, c_ref, rho_ref, a_ref, v_max, q_max, altitude_range_m)
-    tracker = Tracker(model, sw, track_weight)
-    path = tracker.track(sw.grid(int(n_points)))
     head: dict[str, Any] = dict(mach=mach, sweep=sweep, coupling=coupling, rho_ref=rho_ref, a_ref=a_ref,
-                                c_ref=c_ref, dt_star=model.dt_star, altitude_ref_m=h_ref, **_vg_data(sw, path),
-                                modal_share=np.zeros(om.size), lag_root_flagged=path.lag)
+                                c_ref=c_ref, dt_star=model.dt_star, altitude_ref_m=h_ref)
+    return _Search(model, sw, head, int(n_points), float(sdoff_share), float(sdoff_q_factor), track_weight,
+                   float(rtol), None if k_band is None else float(k_band))
+
+
+def flutter_search(se: _Search) -> Solve[FlutterResult]:
+    """The search (a generator of eigen requests, batch.py) -> FlutterResult."""
+    sw, om = se.sweep, se.model.omega
+    tracker = Tracker(se.model, sw, se.track_weight)
+    path = yield from tracker.track_search(sw.grid(se.n_points))
+    head: dict[str, Any] = dict(se.head, **_vg_data(sw, path), modal_share=np.zeros(om.size),
+                                lag_root_flagged=path.lag)
     if path.first_unstable is None:
         msg = f"no flutter up to {sw.range_text()}{_lag_note(path)}"
         return FlutterResult(**no_flutter_fields(), message=msg, **head)
-    br = make_bracket(tracker, path)
-    p_f, branch, st_f = refine_crossing(tracker, br, float(rtol))
+    br = yield from make_bracket(tracker, path)
+    p_f, branch, st_f = yield from refine_crossing(tracker, br, se.rtol)
     omega_path = np.array([st.lam.imag for st in path.states[1:path.first_unstable]] + [st_f.lam.imag])
     # unstable from the start: growth near q = 0 is too small to see; check at least 1/12 of the natural range
     p_chk_min = max(sw.p_start + sw.scale_at(sw.p_start) / 12.0, p_f) if path.first_unstable == 1 else p_f
-    point = _flutter_point(tracker, p_f, branch, st_f, omega_path, float(sdoff_share), float(sdoff_q_factor),
-                           p_chk_min)
+    point = yield from _flutter_point(tracker, p_f, branch, st_f, omega_path, se.sdoff_share, se.sdoff_q_factor,
+                                      p_chk_min)
     if path.first_unstable == 1 and p_f == br.lo_p:
         point["message"] = "structural branch already unstable at the start of the sweep; " + point["message"]
     point["message"] += _lag_note(path)
-    if k_band is not None and point["k_flutter"] > float(k_band):
+    if se.k_band is not None and point["k_flutter"] > se.k_band:
         point["outside_band"] = True
         point["message"] += (f"; WARNING: k_f = {point['k_flutter']:.3g} is above the band the ROM was identified "
-                             f"in (k <= {float(k_band):g}): the ROM is not valid there, so this crossing is not a "
+                             f"in (k <= {se.k_band:g}): the ROM is not valid there, so this crossing is not a "
                              "prediction (start the sweep where the modes are inside the band)")
     head["modal_share"] = point.pop("modal_share")
     return FlutterResult(**point, **head)
@@ -105,7 +132,7 @@ def _vg_data(sw: Sweep, path: Path) -> dict[str, np.ndarray]:
 
 
 def _flutter_point(tracker: Tracker, p_f: float, branch: int, st_f: Branches, omega_path: np.ndarray,
-                   sdoff_share: float, sdoff_q_factor: float, p_chk_min: float) -> dict[str, Any]:
+                   sdoff_share: float, sdoff_q_factor: float, p_chk_min: float) -> Solve[dict[str, Any]]:
     """Flutter-point fields of the result (speeds, frequency, shares, SDOFF, message)."""
     sw, m = tracker.sweep, tracker.m
     share = modal_shares(st_f, branch)
@@ -115,7 +142,7 @@ def _flutter_point(tracker: Tracker, p_f: float, branch: int, st_f: Branches, om
     single = False
     if energy_share >= sdoff_share:
         p_chk = max(sw.p_check(p_f, q_f, sdoff_q_factor), p_chk_min)
-        single = single_mode_unstable(m, sw, int(np.argmax(share)), p_chk, tracker.weight)
+        single = yield from single_mode_unstable(m, sw, int(np.argmax(share)), p_chk, tracker.weight)
     lam_f = complex(st_f.lam[branch])
     omega_f = abs(lam_f.imag)
     alt = sw.altitude(np.array([max(p_f, 0.0)]))[0]

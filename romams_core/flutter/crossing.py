@@ -1,10 +1,12 @@
-"""The first zero crossing of Re(s) on a structural branch, refined with ``scipy.optimize.brentq``.
+"""The first zero crossing of Re(s) on a structural branch, refined by Brent's method (``brentq``).
 
 Every branch that first goes unstable (g > 1e-9) inside the first unstable interval is refined; the lowest
 crossing wins. With the fast Tustin path the branch eigenvalue inside brentq is the Newton root of det T(s),
 started from the linear interpolation between the nearest points of that branch known on either side; each
 refined crossing is then checked against one full eigen-solve (the eigenvalue nearest the linear prediction
-must be the Newton root to 1e-8), else brentq reruns on full eigen-solves.
+must be the Newton root to 1e-8), else brentq reruns on full eigen-solves. ``brentq`` here is
+``scipy.optimize.brentq``'s algorithm step for step (same iterates), written as a generator so that the
+function evaluations of many searches are answered together (batch.py).
 """
 
 from __future__ import annotations
@@ -14,10 +16,66 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import brentq
 
-from .eigen import EigData, NoRoot, newton_root
-from .tracking import G_UNSTABLE, Branches, Path, Tracker
+from .eigen import EigData
+from .newton import NoRoot, RootRequest
+from .tracking import G_UNSTABLE, Branches, Path, Solve, Tracker
+
+BRENTQ_MAXITER = 100  # scipy.optimize.brentq's default
+
+
+def brentq(f: Callable[[float], Solve[float]], xa: float, xb: float, xtol: float, rtol: float,
+           maxiter: int = BRENTQ_MAXITER) -> Solve[float]:
+    """Root of f in [xa, xb] by scipy.optimize.brentq's algorithm (its C code, step for step); f yields requests.
+
+    Raises ValueError when f(xa), f(xb) have the same sign or f is NaN, RuntimeError when not converged.
+    """
+    xpre, xcur = xa, xb
+    xblk = fblk = spre = scur = 0.0
+    fpre = yield from _fval(f, xpre)
+    fcur = yield from _fval(f, xcur)
+    if fpre == 0:
+        return xpre
+    if fcur == 0:
+        return xcur
+    if math.copysign(1.0, fpre) == math.copysign(1.0, fcur):
+        raise ValueError("f(a) and f(b) must have different signs")
+    for _ in range(maxiter):
+        if fpre != 0 and fcur != 0 and math.copysign(1.0, fpre) != math.copysign(1.0, fcur):
+            xblk, fblk = xpre, fpre
+            spre = scur = xcur - xpre
+        if abs(fblk) < abs(fcur):
+            xpre, xcur, xblk = xcur, xblk, xcur
+            fpre, fcur, fblk = fcur, fblk, fcur
+        delta = (xtol + rtol * abs(xcur)) / 2
+        sbis = (xblk - xcur) / 2
+        if fcur == 0 or abs(sbis) < delta:
+            return xcur
+        if abs(spre) > delta and abs(fcur) < abs(fpre):
+            if xpre == xblk:
+                stry = -fcur * (xcur - xpre) / (fcur - fpre)  # interpolate
+            else:  # extrapolate
+                dpre = (fpre - fcur) / (xpre - xcur)
+                dblk = (fblk - fcur) / (xblk - xcur)
+                stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
+            if 2 * abs(stry) < min(abs(spre), 3 * abs(sbis) - delta):
+                spre, scur = scur, stry  # good short step
+            else:
+                spre = scur = sbis  # bisect
+        else:
+            spre = scur = sbis  # bisect
+        xpre, fpre = xcur, fcur
+        xcur += scur if abs(scur) > delta else (delta if sbis > 0 else -delta)
+        fcur = yield from _fval(f, xcur)
+    raise RuntimeError(f"brentq: failed to converge after {maxiter} iterations, value is {xcur}")
+
+
+def _fval(f: Callable[[float], Solve[float]], x: float) -> Solve[float]:
+    """f(x) as a float; NaN raises ValueError (as scipy's brentq)."""
+    y = float((yield from f(x)))
+    if math.isnan(y):
+        raise ValueError(f"The function value at x={x:f} is NaN; solver cannot continue.")
+    return y
 
 
 @dataclass
@@ -38,7 +96,7 @@ class Bracket:
         return complex(a + (p - self.lo_p) / (self.hi_p - self.lo_p) * (b - a))
 
 
-def make_bracket(tracker: Tracker, path: Path) -> Bracket:
+def make_bracket(tracker: Tracker, path: Path) -> Solve[Bracket]:
     """Bracket of the first crossing: the path's first unstable point and the point before it.
 
     The candidates are the branches unstable at that point (none was unstable before). A crossing before the
@@ -53,22 +111,26 @@ def make_bracket(tracker: Tracker, path: Path) -> Bracket:
     if i == 1:
         sw = tracker.sweep
         lo_p = min(sw.start_state_point(), 0.5 * (sw.p_start + hi_p))
-        lo_state = tracker.step(tracker.start(), sw.p_start, lo_p, tracker.eig(np.array([lo_p])))
+        e_lo = yield from tracker.eig(np.array([lo_p]))
+        lo_state = yield from tracker.step(tracker.start(), sw.p_start, lo_p, e_lo)
         unstable |= lo_state.lam.real > 0
     else:
         lo_p, lo_state = path.p[i - 1], path.states[i - 1]
     return Bracket(lo_p, lo_state, hi_p, hi_state, [int(j) for j in np.nonzero(unstable)[0]])
 
 
-def _re_eig(tracker: Tracker, br: Bracket) -> Callable[[float, int], float]:
+ReFn = Callable[[float, int], Solve[float]]
+
+
+def _re_eig(tracker: Tracker, br: Bracket) -> ReFn:
     """Re(s) of a branch at p from a full eigen-solve, matched to the bracket ends' linear prediction."""
 
-    def f(p: float, j: int) -> float:
+    def f(p: float, j: int) -> Solve[float]:
         if p == br.lo_p:
             return float(br.lo_state.lam[j].real)
         if p == br.hi_p:
             return float(br.hi_state.lam[j].real)
-        e = tracker.eig(np.array([p]), vectors=False)
+        e = yield from tracker.eig(np.array([p]), vectors=False)
         lam, per = e.lam[0], float(e.period[0])
         pred = br.pred(p, j)
         if math.isfinite(per):
@@ -78,11 +140,11 @@ def _re_eig(tracker: Tracker, br: Bracket) -> Callable[[float, int], float]:
     return f
 
 
-def _re_newton(tracker: Tracker, br: Bracket) -> Callable[[float, int], float]:
+def _re_newton(tracker: Tracker, br: Bracket) -> ReFn:
     """Re(s) of a branch at p from a Newton root of det T(s) (no eigen-solve); raises NoRoot."""
     m = tracker.m
 
-    def f(p: float, j: int) -> float:
+    def f(p: float, j: int) -> Solve[float]:
         if p == br.lo_p:
             return float(br.lo_state.lam[j].real)
         if p == br.hi_p:
@@ -93,37 +155,43 @@ def _re_newton(tracker: Tracker, br: Bracket) -> Callable[[float, int], float]:
         pb, sb = min((x for x in pts if x[0] > p), key=lambda x: x[0])
         start = sa + (p - pa) / (pb - pa) * (sb - sa)
         v, rho = tracker.sweep.cond(np.array([p]))
-        s = newton_root(m, float(v[0]) / m.c_ref, 0.5 * float(rho[0]) * float(v[0]) ** 2, start,
-                        max(abs(start), float(m.omega[j])))
+        s = yield RootRequest(m, float(v[0]) / m.c_ref, 0.5 * float(rho[0]) * float(v[0]) ** 2, start,
+                              max(abs(start), float(m.omega[j])))
+        if s is None:
+            raise NoRoot(f"no convergence from {start}")
         br.roots[(j, p)] = s
         pts.append((p, s))
-        return s.real
+        return float(s.real)
 
     return f
 
 
-def _refine(br: Bracket, f: Callable[[float, int], float], rtol: float) -> list[float]:
+def _refine(br: Bracket, f: ReFn, rtol: float) -> Solve[list[float]]:
     """Crossing p of each candidate branch with the Re(s) function f (brentq to rtol)."""
     scale = max(abs(br.hi_p), abs(br.lo_p), 1e-300)
     out = []
     for jb in br.cands:
-        if f(br.lo_p, jb) > 0:
+        f_lo = yield from f(br.lo_p, jb)
+        if f_lo > 0:
             out.append(br.lo_p)
         else:
-            out.append(brentq(f, br.lo_p, br.hi_p, args=(jb,), xtol=rtol * scale * 1e-3, rtol=max(rtol, 1e-14)))
+            def fj(p: float, jb: int = jb) -> Solve[float]:
+                return (yield from f(p, jb))
+
+            out.append((yield from brentq(fj, br.lo_p, br.hi_p, rtol * scale * 1e-3, max(rtol, 1e-14))))
     return out
 
 
-def _refine_fast(tracker: Tracker, br: Bracket, rtol: float) -> tuple[list[float], EigData | None] | None:
+def _refine_fast(tracker: Tracker, br: Bracket, rtol: float) -> Solve[tuple[list[float], EigData | None] | None]:
     """Newton-based refinement, checked against one full eigen-solve per crossing; None when it fails."""
     try:
-        p_js = _refine(br, _re_newton(tracker, br), rtol)
+        p_js = yield from _refine(br, _re_newton(tracker, br), rtol)
     except NoRoot:
         return None
     chk = [(jb, pj) for jb, pj in zip(br.cands, p_js, strict=True) if pj != br.lo_p]
     eig_f = None
     if chk:
-        e = tracker.eig(np.array([pj for _, pj in chk]))
+        e = yield from tracker.eig(np.array([pj for _, pj in chk]))
         for i, (jb, pj) in enumerate(chk):
             s = br.roots.get((jb, pj))
             lam = e.lam[i]
@@ -135,16 +203,16 @@ def _refine_fast(tracker: Tracker, br: Bracket, rtol: float) -> tuple[list[float
     return p_js, eig_f
 
 
-def refine_crossing(tracker: Tracker, br: Bracket, rtol: float) -> tuple[float, int, Branches]:
+def refine_crossing(tracker: Tracker, br: Bracket, rtol: float) -> Solve[tuple[float, int, Branches]]:
     """(p_f, flutter branch index, branch state at p_f) of the lowest crossing inside the bracket."""
-    res = _refine_fast(tracker, br, rtol) if tracker.m.lam_a is not None else None
+    res = (yield from _refine_fast(tracker, br, rtol)) if tracker.m.lam_a is not None else None
     if res is None:
-        p_js, eig_f = _refine(br, _re_eig(tracker, br), rtol), None
+        p_js, eig_f = (yield from _refine(br, _re_eig(tracker, br), rtol)), None
     else:
         p_js, eig_f = res
     # lowest crossing; among branches unstable from the bracket start, the most unstable one there
     lo = br.lo_state.lam
     p_f, branch = min(zip(p_js, br.cands, strict=True), key=lambda x: (x[0], -lo[x[1]].real / abs(lo[x[1]])))
-    e_f = tracker.eig(np.array([p_f])) if eig_f is None else eig_f
-    st_f = tracker.step(br.lo_state, br.lo_p, p_f, e_f)
+    e_f = (yield from tracker.eig(np.array([p_f]))) if eig_f is None else eig_f
+    st_f = yield from tracker.step(br.lo_state, br.lo_p, p_f, e_f)
     return p_f, branch, st_f

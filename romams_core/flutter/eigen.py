@@ -1,4 +1,4 @@
-"""Batched eigen-solves of the coupled system: eigenvalues, structural vectors, structural content, Newton roots.
+"""Batched eigen-solves of the coupled system: eigenvalues, structural vectors, structural content.
 
 For n sweep points (V [n], q [n]) one call stacks the n coupled matrices and solves them with one LAPACK
 call. Every eigenvalue s (rad/s) comes with
@@ -28,7 +28,6 @@ eigenvectors V and the left ones from V^-1.
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,6 +110,8 @@ def struct_vectors(
     sigma_(k-1) / sigma_min, i.e. to rounding, since s is an eigenvalue; likewise eta from the rows (both from one
     batched inverse of T, which is then dominated by xi eta^H / sigma_min). LAPACK lists
     a complex pair consecutively, positive imaginary part first; the second member takes the conjugate vector.
+    A root exactly on an aero pole (an aero state the structure neither drives nor sees, e.g. the extra copies of
+    a repeated RFA pole) is a pure aero root: structural part 0, content 0, lag root (as its full eigenvector).
     None when ill-defined (non-finite, T exactly singular): the caller then uses the full eigenvectors.
     """
     assert m.lam_a is not None and m.res is not None
@@ -122,7 +123,11 @@ def struct_vectors(
     with np.errstate(all="ignore"):
         vc = (v / m.c_ref)[rows]
         r = 1.0 / ((ss / vc)[:, None] - m.lam_a)  # vc / (s - vc lam_i) = 1 / (s* - lam_i) [M, na]
-        near = (np.abs(r) > m.near_r).any(axis=1)  # |s* - lam_i| < LAG_NEAR |lam_i| for some aero pole i
+        # a root exactly on an aero pole is an aero state the structure does not drive or see (a repeated pole of
+        # an RFA ROM has more copies than modes): a pure aero root, structural part 0, content 0, a lag root
+        on_pole = ~np.isfinite(r).all(axis=1)
+        r[on_pole] = 0.0
+        near = (np.abs(r) > m.near_r).any(axis=1) | on_pole  # |s* - lam_i| < LAG_NEAR |lam_i| for some pole i
         rr = np.concatenate([r, r * r]) @ m.res  # [2M, k*k]: H - D, and -vc dH/ds
         t = (m.d.ravel() + rr[:nm]) * (-q[rows])[:, None]
         g = 2.0 * m.zeta * m.omega
@@ -146,13 +151,22 @@ def struct_vectors(
         dta = rr[nm:].reshape(-1, k, k) * (q[rows] / vc)[:, None, None]  # -q dH_lag/ds (the aero states' part)
         pa = np.abs((zc[:, None, :] @ (dta @ y[:, :, None]))[:, 0, 0])
         cont = ps / (ps + pa)
+        x[on_pole] = 0.0
+        cont[on_pole] = 0.0
     if not (np.isfinite(x).all() and np.isfinite(cont).all()):
         return None
-    lagm = np.zeros(lam.shape, bool)
-    lagm[sel] = near & (cont < CONTENT_MIN)
-    out = np.empty(lam.shape + (2 * k,), complex)
+    return _fill_pairs(lam.shape, sel, paired, x, cont, near & (cont < CONTENT_MIN))
+
+
+def _fill_pairs(shape: tuple[int, ...], sel: np.ndarray, paired: bool, x: np.ndarray, cont: np.ndarray,
+                lag: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vectors [n, 2k, nt], content and lag mask [n, nt] of all roots from those of the selected ones (the second
+    member of a LAPACK conjugate pair takes the conjugate vector, the same content and lag flag)."""
+    lagm = np.zeros(shape, bool)
+    lagm[sel] = lag
+    out = np.empty(shape + (x.shape[1],), complex)
     out[sel] = x
-    content = np.empty(lam.shape)
+    content = np.empty(shape)
     content[sel] = cont
     if paired:
         ip, jp = np.nonzero(~sel)
@@ -280,46 +294,11 @@ def _tustin(m: Model, v: np.ndarray, q: np.ndarray) -> EigData:
     return EigData(lam.astype(complex), xs, content, per)
 
 
-class NoRoot(Exception):
-    """Newton on det T(s) did not converge (the caller falls back to eigen-solves)."""
+@dataclass
+class EigRequest:
+    """A search's request for the eigen-data of ``model`` at speeds v [n] (m/s), dynamic pressures q [n] (Pa)."""
 
-
-def newton_root(m: Model, vc: float, q: float, s0: complex, scale: float, maxit: int = 30) -> complex:
-    """Eigenvalue s (rad/s) of the Tustin coupled system at V/c_ref = vc (1/s), q (Pa) by Newton on det T(s) from s0.
-
-    Step: s <- s - 1 / tr(T^-1 dT/ds) (d ln det T / ds), dT/ds = 2 s I + G + (q / vc) sum_i res_i r_i^2 with
-    r_i = vc / (s - vc lam_i) (plus the D1, D2 terms of a continuous model, ``_rate_terms``); quadratic near a
-    simple root, so a step below 1e-7 ``scale`` leaves an error of
-    order 1e-14 ``scale``: converged. Raises NoRoot otherwise.
-    """
-    assert m.lam_a is not None and m.res is not None
-    k = m.k
-    lam_a, res = m.lam_a, m.res
-    g = 2.0 * m.zeta * m.omega
-    kd = m.omega**2
-    qd = -q * m.d.ravel()
-    rate = m.d1 is not None or m.d2 is not None
-    s = complex(s0)
-    with np.errstate(all="ignore"):
-        for _ in range(maxit):
-            r = 1.0 / (s / vc - lam_a)
-            t = qd - q * (r @ res)
-            t[:: k + 1] += s * s + g * s + kd
-            dt = (q / vc) * ((r * r) @ res)
-            dt[:: k + 1] += 2.0 * s + g
-            if rate:
-                t_rate, dt_rate = _rate_terms(m, np.array([s]), np.array([vc]), np.array([q]))
-                assert t_rate is not None and dt_rate is not None
-                t = t + t_rate[0]
-                dt = dt + dt_rate[0]
-            _, _, x, info = _zgesv(t.reshape(k, k), dt.reshape(k, k))
-            if info > 0:
-                return s  # T(s) exactly singular: s is an eigenvalue
-            tr = complex(x.trace())
-            if info < 0 or not (math.isfinite(tr.real) and math.isfinite(tr.imag)) or tr == 0:
-                break
-            step = 1.0 / tr
-            s -= step
-            if abs(step) <= 1e-7 * scale:
-                return s
-    raise NoRoot(f"no convergence from {s0}")
+    model: Model
+    v: np.ndarray
+    q: np.ndarray
+    vectors: bool = True

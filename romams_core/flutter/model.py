@@ -163,6 +163,65 @@ class Model:
                      None if self.d2 is None else self.d2[[j]][:, [j]])
 
 
+MINIMAL_RTOL = 1e-11  # residue singular values below this x the largest one are dropped (minimal_realization)
+
+
+def _pole_clusters(lam: np.ndarray) -> list[np.ndarray] | None:
+    """Indices of equal poles (1e-9 relative), real poles and upper half-plane ones only (their conjugates are
+    implied); None when the lower half-plane poles are not the conjugates of the upper ones."""
+    scale = 1e-9 * max(float(np.max(np.abs(lam))), 1e-300)
+    real = np.abs(lam.imag) <= scale
+    upper, lower = np.nonzero(~real & (lam.imag > 0))[0], np.nonzero(~real & (lam.imag < 0))[0]
+    if upper.size != lower.size or not np.allclose(np.sort_complex(lam[upper]), np.sort_complex(lam[lower].conj()),
+                                                   rtol=0, atol=scale):
+        return None
+    out: list[np.ndarray] = []
+    for idx in (np.nonzero(real)[0], upper):
+        idx = idx[np.lexsort((lam[idx].imag, lam[idx].real))]
+        cut = np.nonzero(np.abs(np.diff(lam[idx])) > scale)[0] + 1
+        out.extend(np.split(idx, cut) if idx.size else [])
+    return out
+
+
+def minimal_realization(lam: np.ndarray, w: np.ndarray, wi: np.ndarray, a: np.ndarray, b: np.ndarray,
+                        c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(a, b, c) of the same transfer matrix c (sI - a)^-1 b without the states the modes neither drive nor see.
+
+    a = w diag(lam) w^-1. A pole repeated d times (a rational-function ROM repeats every lag pole once per basis
+    shape) contributes R / (s - lam) with R = (c w)_g (w^-1 b)_g of rank r <= min(d, k): it needs only r states
+    (SVD of R; a complex pair 2r real states). Returns the input matrices when nothing can be removed (distinct
+    poles: the ARX ROMs), so their searches are unchanged.
+    """
+    clusters = _pole_clusters(lam)
+    if clusters is None or all(g.size == 1 for g in clusters):
+        return a, b, c
+    ct, bt = c @ w, wi @ b
+    svds = [np.linalg.svd(ct[:, g] @ bt[g, :]) for g in clusters]
+    tol = MINIMAL_RTOL * max(float(sv[1][0]) for sv in svds)
+    blocks_a, blocks_b, blocks_c = [], [], []
+    for g, (u, sv, vh) in zip(clusters, svds, strict=True):
+        r = int(np.count_nonzero(sv > tol))
+        p, q, lg = sv[:r, None] * vh[:r], u[:, :r], lam[g[0]]
+        if abs(lg.imag) <= 1e-9 * abs(lg):
+            blocks_a.append(lg.real * np.eye(r))
+            blocks_b.append(p.real)
+            blocks_c.append(q.real)
+        else:  # z = x1 + i x2, z' = lam z + p u; the conjugate pole adds conj: y = 2 Re(q z)
+            blocks_a.append(np.block([[lg.real * np.eye(r), -lg.imag * np.eye(r)],
+                                      [lg.imag * np.eye(r), lg.real * np.eye(r)]]))
+            blocks_b.append(np.vstack([p.real, p.imag]))
+            blocks_c.append(np.hstack([2.0 * q.real, -2.0 * q.imag]))
+    n = sum(x.shape[0] for x in blocks_a)
+    if n >= a.shape[0]:
+        return a, b, c
+    am = np.zeros((n, n))
+    i = 0
+    for x in blocks_a:
+        am[i:i + x.shape[0], i:i + x.shape[0]] = x
+        i += x.shape[0]
+    return am, np.vstack(blocks_b), np.hstack(blocks_c)
+
+
 def make_model(om: np.ndarray, zt: np.ndarray, c_ref: float, aero: Any, coupling: str) -> Model:
     """Validated coupling data of structure (omega [k] rad/s, zeta [k]) and discrete aero model ``aero``."""
     k = om.size
@@ -179,6 +238,7 @@ def make_model(om: np.ndarray, zt: np.ndarray, c_ref: float, aero: Any, coupling
             a, b, c, d = tustin_matrices(a, b, c, d, dt_star, lu=prep.lu, abar=abar, field="aero.A")
         if prep.lam is not None and prep.w is not None and prep.wi is not None:
             lam_a, res = prep.lam, ((c @ prep.w).T[:, :, None] * (prep.wi @ b)[:, None, :]).reshape(-1, k * k)
+            a, b, c = minimal_realization(prep.lam, prep.w, prep.wi, a, b, c)
     return Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res, None, prep.poles,
                  parts.d1, parts.d2)
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from .model import Model
 from .sweeps import Sweep
-from .tracking import Branches, Tracker
+from .tracking import Branches, Solve, Tracker
 
 
 def modal_shares(state: Branches, branch: int) -> np.ndarray:
@@ -28,7 +28,7 @@ def frequency_separation(omega_path: np.ndarray, branch: int) -> float:
     return float(np.min(np.abs(others - omega_path[:, [branch]]) / np.where(wb > 0, wb, 1.0)[:, None]))
 
 
-def single_mode_unstable(m: Model, sweep: Sweep, j: int, p_end: float, weight: float, n: int = 6) -> bool:
+def single_mode_unstable(m: Model, sweep: Sweep, j: int, p_end: float, weight: float, n: int = 6) -> Solve[bool]:
     """True when structural mode j alone (diagonal aero term only) has an unstable oscillatory root at some p <= p_end.
 
     A zero-frequency (divergence) root of the single mode does not count: SDOFF is a dynamic instability.
@@ -39,12 +39,16 @@ def single_mode_unstable(m: Model, sweep: Sweep, j: int, p_end: float, weight: f
     tr = Tracker(sub, sweep, weight)
     # fast path: no unstable oscillatory root at all at p_end -> stable (a single-mode hump that returns
     # to stability before p_end would be missed; such a hump is not flutter-critical at q_f anyway)
-    lam_end = tr.eig(np.array([p_end]), vectors=False).lam[0]
+    lam_end = (yield from tr.eig(np.array([p_end]), vectors=False)).lam[0]
     if not np.any((lam_end.real > 1e-9 * np.abs(lam_end)) & (np.abs(lam_end.imag) > 0.05 * sub.omega[0])):
         return False
     grid = np.linspace(sweep.p_start, p_end, n + 1)[1:]
-    for state in tr.iter_track(grid):
+    eg = yield from tr.eig(grid)
+    state, p_prev = tr.start(), sweep.p_start
+    for i in range(grid.size):  # the grid points in turn (no pre-crossing refinement)
+        state = yield from tr.step(state, p_prev, float(grid[i]), eg.point(i))
         s = state.lam[0]
         if s.real > 1e-9 * abs(s) and abs(s.imag) > 0.05 * sub.omega[0]:  # oscillatory (not divergence)
             return True
+        p_prev = float(grid[i])
     return False

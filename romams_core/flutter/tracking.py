@@ -23,14 +23,16 @@ so it is taken only when no structural candidate is left, and then the result is
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Generator
 from dataclasses import dataclass, field
+from typing import Any, TypeVar
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .eigen import EigData, eig_batch
+from .eigen import EigData, EigRequest
 from .model import Model
+from .newton import Request
 from .sweeps import Sweep
 
 MAC_MIN = 0.8  # assigned MAC below this: ambiguous step
@@ -46,6 +48,9 @@ MAX_REFINE_POINTS = 400  # refinement budget (eigen-solved points) of one search
 G_UNSTABLE = 1e-9  # g above which a branch counts as unstable
 HUMP_FLOOR = 1e-6  # a damping hump is resolved when its estimate (+ uncertainty) reaches above this g
 HUMP_ERR = 0.5  # uncertainty of the parabola estimate of g, relative to the linear extrapolation error
+
+T = TypeVar("T")
+Solve = Generator[Request, Any, T]  # a computation that yields eigen requests and returns a T (batch.py)
 
 
 @dataclass
@@ -210,7 +215,11 @@ class Path:
 
 
 class Tracker:
-    """Continuation of the structural branches along a sweep (module docstring)."""
+    """Continuation of the structural branches along a sweep (module docstring).
+
+    The methods that need eigen-data are generators: they yield ``eigen.EigRequest`` and receive EigData
+    (``batch.run_searches`` answers the requests of many searches with one batched eigen-solve).
+    """
 
     def __init__(self, model: Model, sweep: Sweep, weight: float):
         self.m = model
@@ -221,21 +230,27 @@ class Tracker:
         """The branch state at p_start (q = 0): the in-vacuo poles."""
         return initial_branches(self.m.omega, self.m.zeta)
 
-    def eig(self, p: np.ndarray, vectors: bool = True) -> EigData:
+    def eig(self, p: np.ndarray, vectors: bool = True) -> Solve[EigData]:
         """Eigen-data at the sweep parameters p (with their continuation coordinates)."""
         v, rho = self.sweep.cond(p)
-        e = eig_batch(self.m, v, 0.5 * rho * v**2, vectors)
+        e = yield EigRequest(self.m, v, 0.5 * rho * v**2, vectors)
         e.x = self.sweep.x(p, v, rho)
         return e
 
-    def step(self, prev: Branches, p0: float, p1: float, e1: EigData, depth: int = 0) -> Branches:
+    def step(self, prev: Branches, p0: float, p1: float, e1: EigData, depth: int = 0) -> Solve[Branches]:
         """Track from p0 (state prev) to p1 (eigen-data e1 of that point); an ambiguous step is split in four
         sub-steps (one batched eigen-solve of the three interior points), at most ``POST_CROSSING_DEPTH`` times."""
         path = Path([p0], [prev], [0.0], first_unstable=0)  # careful refinement off (x unused)
-        self._advance(path, p1, e1, depth)
+        yield from self._advance(path, p1, e1, depth)
         return path.states[-1]
 
     def track(self, grid: np.ndarray) -> Path:
+        """``track_search`` run on its own (one search)."""
+        from .batch import run_one
+
+        return run_one(self.track_search(grid))
+
+    def track_search(self, grid: np.ndarray) -> Solve[Path]:
         """The path over the coarse grid from the in-vacuo poles at p_start, refined where needed.
 
         The sweep's fixed start points below the first grid point are tracked first (with the zero-order-hold
@@ -245,23 +260,14 @@ class Tracker:
         start = self.sweep.start_points()
         start = start[(start < grid[0]) & (self.sweep.cond(start)[0] > self.m.min_speed)]
         pts = np.concatenate([start, grid])
-        eg = self.eig(pts)
+        eg = yield from self.eig(pts)
         p0 = np.array([self.sweep.p_start])
         path = Path([self.sweep.p_start], [self.start()], [float(self.sweep.x(p0, *self.sweep.cond(p0))[0])])
         for i in range(pts.size):
-            self._advance(path, float(pts[i]), eg.point(i), 0)
+            yield from self._advance(path, float(pts[i]), eg.point(i), 0)
             if i >= start.size:
                 path.coarse.append(len(path.p) - 1)
         return path
-
-    def iter_track(self, grid: np.ndarray) -> Iterator[Branches]:
-        """Branch states at the grid points in turn (no pre-crossing refinement: used by the SDOFF check)."""
-        eg = self.eig(grid)
-        state, p_prev = self.start(), self.sweep.p_start
-        for i in range(grid.size):
-            state = self.step(state, p_prev, float(grid[i]), eg.point(i))
-            yield state
-            p_prev = float(grid[i])
 
     def _split(self, path: Path, p1: float, x1: float, careful: bool, check: StepCheck, new: Branches,
                depth: int) -> bool:
@@ -286,7 +292,7 @@ class Tracker:
         g_new = 2.0 * new.lam.real / np.abs(new.lam)
         return _may_cross((xm, x0, x1), np.array([path.g(i), path.g(-1), g_new]))
 
-    def _advance(self, path: Path, p1: float, e1: EigData, depth: int) -> None:
+    def _advance(self, path: Path, p1: float, e1: EigData, depth: int) -> Solve[None]:
         """Append the point p1 (eigen-data e1) to the path, refining the step when needed."""
         new, check = assign(path.states[-1], e1, self.weight, self.m.omega)
         careful = path.first_unstable is None
@@ -294,11 +300,11 @@ class Tracker:
         if self._split(path, p1, x1, careful, check, new, depth):
             p0 = path.p[-1]
             ps = p0 + (p1 - p0) * np.array([0.25, 0.5, 0.75])
-            em = self.eig(ps)
+            em = yield from self.eig(ps)
             path.n_refined += 3
             for i in range(3):
-                self._advance(path, float(ps[i]), em.point(i), depth + 1)
-            self._advance(path, p1, e1, depth + 1)
+                yield from self._advance(path, float(ps[i]), em.point(i), depth + 1)
+            yield from self._advance(path, p1, e1, depth + 1)
             return
         path.p.append(p1)
         path.x.append(x1)

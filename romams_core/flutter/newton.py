@@ -1,0 +1,126 @@
+"""Newton roots of det T(s) on the Tustin fast path, many requests iterated together (crossing refinement).
+
+The eigenvalue s (rad/s) of the coupled system at V / c_ref = vc, q is a root of det T(s), T(s) = s^2 I + s G + K
+- q H(s) with H from the diagonalized aero matrix (``model.py``); the crossing refinement (``crossing.py``) asks
+for such roots inside brentq instead of full eigen-solves. ``batch.py`` answers the requests of many searches
+with one ``newton_roots`` call.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .eigen import EigRequest, _zgesv
+from .model import Model
+
+
+class NoRoot(Exception):
+    """Newton on det T(s) did not converge (the caller falls back to eigen-solves)."""
+
+
+@dataclass
+class RootRequest:
+    """A search's request for the Newton root of det T(s) of ``model`` at V/c_ref = vc (1/s), q (Pa) from s0 (rad/s)."""
+
+    model: Model
+    vc: float
+    q: float
+    s0: complex
+    scale: float
+
+
+Request = EigRequest | RootRequest
+
+
+def newton_root(m: Model, vc: float, q: float, s0: complex, scale: float, maxit: int = 30) -> complex:
+    """Eigenvalue s (rad/s) at V/c_ref = vc (1/s), q (Pa) by Newton on det T(s) from s0 (``newton_roots``, one root).
+
+    Raises NoRoot when Newton does not converge.
+    """
+    s = newton_roots([RootRequest(m, vc, q, s0, scale)], maxit)[0]
+    if s is None:
+        raise NoRoot(f"no convergence from {s0}")
+    return s
+
+
+def _root_arrays(reqs: list[RootRequest]) -> dict[str, np.ndarray]:
+    """Per-request parameters of Newton on det T(s), stacked (all requests have the same k and na)."""
+    m0 = reqs[0].model
+    k2 = m0.k * m0.k
+    ms = [r.model for r in reqs]
+    zero = np.zeros(k2)
+    out = {
+        "lam_a": np.array([m.lam_a for m in ms]), "res": np.array([m.res for m in ms]),
+        "g": np.array([2.0 * m.zeta * m.omega for m in ms]), "kd": np.array([m.omega**2 for m in ms]),
+        "d": np.array([m.d.ravel() for m in ms]), "vc": np.array([r.vc for r in reqs], float),
+        "q": np.array([r.q for r in reqs], float), "s": np.array([r.s0 for r in reqs], complex),
+        "scale": np.array([r.scale for r in reqs], float),
+    }
+    if any(m.d1 is not None or m.d2 is not None for m in ms):
+        out["d1"] = np.array([zero if m.d1 is None else m.d1.ravel() for m in ms])
+        out["d2"] = np.array([zero if m.d2 is None else m.d2.ravel() for m in ms])
+    return out
+
+
+def _newton_system(a: dict[str, np.ndarray], i: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """T(s) and dT/ds [n, k, k] of the requests i at their current s (module docstring; D1, D2 as _rate_terms)."""
+    s, vc, q = a["s"][i], a["vc"][i], a["q"][i]
+    r = 1.0 / (s[:, None] / vc[:, None] - a["lam_a"][i])  # [n, na]
+    res = a["res"][i]
+    t = -q[:, None] * a["d"][i] - q[:, None] * (r[:, None, :] @ res)[:, 0, :]
+    t[:, :: k + 1] += s[:, None] * s[:, None] + a["g"][i] * s[:, None] + a["kd"][i]
+    dt = (q / vc)[:, None] * ((r * r)[:, None, :] @ res)[:, 0, :]
+    dt[:, :: k + 1] += 2.0 * s[:, None] + a["g"][i]
+    if "d1" in a:
+        sv, qv = (s / vc)[:, None], (q / vc)[:, None]
+        d1, d2 = a["d1"][i], a["d2"][i]
+        t = t + -q[:, None] * (sv * d1 + sv * sv * d2)
+        dt = dt + -qv * (d1 + 2.0 * sv * d2)
+    return t.reshape(-1, k, k), dt.reshape(-1, k, k)
+
+
+def _solve_each(t: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(T^-1 dT/ds [n, k, k], exactly singular T [n]) one system at a time (after a batched solve failed)."""
+    x = np.empty(t.shape, complex)
+    sing = np.zeros(t.shape[0], bool)
+    for i in range(t.shape[0]):
+        _, _, xi, info = _zgesv(t[i], dt[i])
+        sing[i] = info > 0
+        x[i] = xi if info == 0 else np.nan
+    return x, sing
+
+
+def newton_roots(reqs: list[RootRequest], maxit: int = 30) -> list[complex | None]:
+    """Newton roots of det T(s) (rad/s) for requests of one shape (k, na), all iterated together; None: no root.
+
+    Step: s <- s - 1 / tr(T^-1 dT/ds) (d ln det T / ds), dT/ds = 2 s I + G + (q / vc) sum_i res_i r_i^2 with
+    r_i = vc / (s - vc lam_i) (plus the D1, D2 terms of a continuous model, ``_rate_terms``); quadratic near a
+    simple root, so a step below 1e-7 ``scale`` leaves an error of order 1e-14 ``scale``: converged. A request
+    leaves the iteration when it has converged (or failed), so slow ones do not cost the others anything.
+    """
+    m0 = reqs[0].model
+    assert all(r.model.lam_a is not None and r.model.res is not None for r in reqs)
+    k = m0.k
+    a = _root_arrays(reqs)
+    out: list[complex | None] = [None] * len(reqs)
+    act = np.arange(len(reqs))
+    with np.errstate(all="ignore"):
+        for _ in range(maxit):
+            if act.size == 0:
+                break
+            t, dt = _newton_system(a, act, k)
+            try:
+                x, sing = np.linalg.solve(t, dt), np.zeros(act.size, bool)
+            except np.linalg.LinAlgError:
+                x, sing = _solve_each(t, dt)
+            tr = np.trace(x, axis1=1, axis2=2)
+            ok = np.isfinite(tr) & (tr != 0) & ~sing
+            step = np.where(ok, 1.0 / np.where(ok, tr, 1.0), 0.0)
+            a["s"][act] -= step
+            done = sing | (ok & (np.abs(step) <= 1e-7 * a["scale"][act]))
+            for i in act[done].tolist():
+                out[i] = complex(a["s"][i])
+            act = act[ok & ~done]
+    return out
