@@ -52,6 +52,11 @@ class _Console:
         self.c.print(f"[dim]{time.perf_counter() - self.t0:6.1f} s[/dim]  {text}")
 
 
+def _fmt(x: float | None, spec: str) -> str:
+    """A number formatted with ``spec``, or "none" (no flutter found)."""
+    return "none" if x is None else format(x, spec)
+
+
 def _median_ms(fn: Any, repeats: int) -> float:
     """Median wall time of ``fn()`` in milliseconds."""
     times = []
@@ -189,8 +194,8 @@ def demo_command(
             row["omega_error_pct"] = (100.0 * (row["omega_flutter_rad_s"] / row["omega_flutter_pms_rad_s"] - 1.0)
                                       if ok else None)
             rows.append(row)
-            log(f"{name} M {row['mach']:.2f}: ROM-AMS V_EAS {row['v_eas_m_s']} m/s, ROM-PMS "
-                f"{row['v_eas_pms_m_s']} m/s, error {row['error_pct']} %")
+            log(f"{name} M {row['mach']:.2f}: ROM-AMS V_EAS {_fmt(row['v_eas_m_s'], '.2f')} m/s, ROM-PMS "
+                f"{_fmt(row['v_eas_pms_m_s'], '.2f')} m/s, error {_fmt(row['error_pct'], '+.3f')} %")
         design_rows.append({
             "name": name, "design": design, "mass_kg": float(modal.mass_kg),
             "frequencies_hz": [float(f) for f in modal.frequencies_hz], "mac": [float(x) for x in ev.mac],
