@@ -204,6 +204,13 @@ def test_openapi_documents_the_contract(client):
               "/api/v1/wings/{wing}/flutter", "/api/v1/wings/{wing}/flutter/batch", "/api/v1/modes",
               "/api/v1/evaluations/{evaluation_id}/vg", "/api/v1/evaluations/{evaluation_id}/plot.{fmt}"):
         assert p in paths, p
+    for p in ("/api/v1/evaluations/{evaluation_id}/plot.{fmt}", "/api/v1/bases/{basis_id}/shapes.{fmt}"):
+        assert set(paths[p]["get"]["responses"]["200"]["content"]) == {"image/png", "image/svg+xml"}, p
+    post = paths["/api/v1/wings/{wing}/flutter"]["post"]["responses"]
+    for status in ("400", "401", "403", "404", "409", "413", "422", "503"):
+        assert set(post[status]["content"]) == {"application/problem+json"}, status
+    assert "Retry-After" in post["503"]["headers"] and "WWW-Authenticate" in post["401"]["headers"]
+    assert {"title", "status", "detail"} <= set(spec["components"]["schemas"]["Problem"]["required"])
     assert client.get("/api/v1/health").json()["status"] == "ok"
 
 
