@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from romams.persistence import FINAL, JobStatus, Store, UnitOfWork
+from romams.persistence import FINAL, DatabaseUnavailable, JobStatus, Store, UnitOfWork
 from romams.services.errors import error_dict
 from romams.services.queue import FINALIZE_FOR_KIND, TASK_FOR_KIND
 
@@ -208,6 +208,8 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
     except Cancelled:
         end_cancelled(store, job_id)
         return Outcome(JobStatus.CANCELLED)
+    except DatabaseUnavailable:  # transient, not the job's fault: the row stays as it is for a retry or the sweeper
+        raise
     except (ValueError, KeyError, JobFailed) as exc:
         err = error_dict(exc) if isinstance(exc, ValueError) else {"status": 500, "field": None,
                                                                     "detail": str(exc), "reason": str(exc)}
