@@ -211,6 +211,9 @@ def test_openapi_documents_the_contract(client):
         assert set(post[status]["content"]) == {"application/problem+json"}, status
     assert "Retry-After" in post["503"]["headers"] and "WWW-Authenticate" in post["401"]["headers"]
     assert {"title", "status", "detail"} <= set(spec["components"]["schemas"]["Problem"]["required"])
+    r = client.delete("/api/v1/wings")  # 405 names every method of the path, not those of its first route
+    assert r.status_code == 405 and r.headers["allow"] == "GET, POST"
+    assert r.headers["content-type"] == "application/problem+json"
     assert client.get("/api/v1/health").json()["status"] == "ok"
 
 

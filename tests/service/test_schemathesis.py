@@ -77,7 +77,7 @@ def api(tmp_path_factory):
         job = client.get("/api/v1/jobs").json()[0]["id"]
         real = {"wing": str(ids["wing"]), "basis_id": ids["basis"], "rom_id": ids["rom"],
                 "evaluation_id": ids["evaluation"], "job_id": job}
-        yield schemathesis.openapi.from_asgi("/openapi.json", app), real
+        yield schemathesis.openapi.from_asgi("/openapi.json", app), real, app
 
 
 def _cases(operation, mode: GenerationMode, real: dict[str, object]) -> st.SearchStrategy:
@@ -128,7 +128,7 @@ def _content_type(response) -> str:
 
 @pytest.mark.parametrize("mode", [GenerationMode.POSITIVE, GenerationMode.NEGATIVE])
 def test_every_response_is_documented_and_no_input_gives_a_5xx(api, mode):
-    schema, real = api
+    schema, real, _ = api
     failures: list[str] = []
     seen: Counter = Counter()
     for result in schema.get_all_operations():
@@ -143,7 +143,7 @@ def test_every_response_is_documented_and_no_input_gives_a_5xx(api, mode):
 
 
 def test_without_a_key_every_mutating_route_answers_a_documented_401(api):
-    schema, real = api
+    schema, real, _ = api
     failures: list[str] = []
     seen: Counter = Counter()
     for result in schema.get_all_operations():
@@ -152,3 +152,36 @@ def test_without_a_key_every_mutating_route_answers_a_documented_401(api):
             failures += _failures(op, _cases(op, GenerationMode.POSITIVE, real), {}, 5, seen)
     assert not failures, f"{len(failures)} failures:\n" + "\n".join(sorted(set(failures))[:60])
     assert {status for status, _ in seen} == {401}, seen
+
+
+#: schemathesis' own runner: its explicit examples, its coverage phase (boundary values, each parameter missing,
+#: wrong types, unsupported methods) and its stateful phase (responses' ids fed into later requests), with every
+#: check it has except positive_data_acceptance: this API validates what a schema cannot say (a design's variable
+#: names and bounds belong to the wing, an upload's content must be modes, at most one of design/modes/modes_id)
+ENGINE_CONFIG = {
+    "headers": {"Authorization": f"Bearer {KEY}"},
+    "checks": {"positive_data_acceptance": {"enabled": False}},
+    "phases": {"examples": {"enabled": True}, "coverage": {"enabled": True}, "fuzzing": {"enabled": False},
+               "stateful": {"enabled": True}},
+    "generation": {"max-examples": 10},
+}
+
+
+def test_coverage_and_stateful_phases_find_nothing(api):
+    from schemathesis.config import SchemathesisConfig
+    from schemathesis.engine import events, from_schema
+
+    _, _, app = api
+    schema = schemathesis.openapi.from_asgi("/openapi.json", app, config=SchemathesisConfig.from_dict(ENGINE_CONFIG))
+    failures, errors, statuses = [], [], Counter()
+    for event in from_schema(schema).execute():
+        if isinstance(event, events.ScenarioFinished):
+            statuses.update(i.response.status_code for i in event.recorder.interactions.values() if i.response)
+            failures += [f"{event.label}: {c.name}: {c.failure_info.failure.title}"
+                         for checks in event.recorder.checks.values() for c in checks if c.failure_info]
+        elif isinstance(event, events.NonFatalError | events.FatalError):
+            errors.append(str(getattr(event, "info", event))[:500])
+    assert not errors, errors[:10]
+    assert not failures, sorted(set(failures))
+    assert sum(statuses.values()) > 300 and {200, 404, 405, 422} <= set(statuses), statuses
+    assert not any(s >= 500 for s in statuses), statuses
