@@ -29,6 +29,7 @@ from .servers import PostgresServer, RedisServer
 pytestmark = pytest.mark.services
 
 #: a quick DLM training (about 5 s on an idle core): long enough to be running when the fault strikes
+DESIGN = [0.3, 0.4, 0.7, 0.05, 1.0, 1.0, 0.8]
 RFA_FAST = {"k_values": [0.0, 0.1, 0.3, 0.6], "n_lags": 1}
 FAST = {"heartbeat_s": 0.5, "job_stale_s": 6.0, "job_queued_resend_s": 3.0, "db_connect_timeout_s": 2,
         "sync_timeout_s": 60.0, "basis_chunk": 2}
@@ -145,8 +146,8 @@ def test_redis_restart_without_persistence_loses_no_job(deployment):
     time.sleep(1.0)
     d.redis.start()  # empty: every queued message is gone
     t0 = time.monotonic()  # the synchronous path (a message, the result backend) works on the restarted Redis
-    r = d.client.post(f"/api/v1/wings/{d.wing_id}/flutter", json={"design": [0.3, 0.4, 0.7, 0.05, 1.0, 1.0, 0.8],
-                                                                    "machs": [0.5], "store": False})
+    r = d.client.post(f"/api/v1/wings/{d.wing_id}/flutter", json={"design": DESIGN, "machs": [0.5],
+                                                                    "store": False})
     assert r.status_code == 200, r.text
     assert time.monotonic() - t0 < 5.0
     jobs = _wait_all_final(d, 300)
@@ -172,7 +173,7 @@ class _Load:
         except Exception as exc:  # noqa: BLE001 - a dropped connection or a crash in the app
             self.bad.append(f"{method} {path}: {type(exc).__name__}: {exc}")
             return
-        self.seen[(method, path.split("/")[3], r.status_code)] += 1
+        self.seen[(method, path.rsplit("/", 1)[-1], r.status_code)] += 1
         if r.status_code == 503 and (r.headers.get("content-type") != "application/problem+json"
                                      or not r.headers.get("retry-after")):
             self.bad.append(f"{method} {path}: 503 without problem+json and Retry-After: {r.headers}")
@@ -187,6 +188,7 @@ class _Load:
             self._one("GET", f"/api/v1/wings/{wid}")
             self._one("GET", "/api/v1/health")
             self._one("POST", f"/api/v1/wings/{wid}/basis", json={"samples": 6, "modes": 2, "seed": self.seed})
+            self._one("POST", f"/api/v1/wings/{wid}/flutter", json={"design": DESIGN, "machs": [0.5], "store": False})
             time.sleep(0.05)
 
     def __enter__(self) -> _Load:
@@ -199,15 +201,19 @@ class _Load:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("deployment", [{"job_stale_s": 600.0, "job_queued_resend_s": 600.0}], indirect=True)
+@pytest.mark.parametrize("deployment", [{"job_stale_s": 600.0, "job_queued_resend_s": 600.0, "sync_timeout_s": 5.0}],
+                         indirect=True)
 def test_postgresql_restart_gives_only_503s_and_leaves_no_job_stuck(deployment):
-    """PostgreSQL is stopped for 10 s while the API serves requests, a training runs and basis jobs are queued:
+    """PostgreSQL is stopped for 10 s while the API serves requests (reads, basis jobs, synchronous evaluations), a
+    training runs and basis jobs are queued:
     only 503 problem+json with Retry-After during the outage (no other 5xx, no dropped connection); afterwards
     every job ends succeeded (none left running without a heartbeat or queued) and the worker is alive. The
     sweeper is slowed down to 600 s: the recovery is the worker's own (a task that meets the outage is retried)."""
     d = deployment
     _seed_basis(d.store, d.wing_id)
-    training = _training_running(d, 0.5)
+    first = wait_job(d.client, _training_running(d, 0.5), 240)  # the ROM the evaluations use
+    assert first["status"] == "succeeded", (first, d.logs())
+    training = _training_running(d, 0.6)
     for seed in (1, 2):
         _basis(d, seed)
     with _Load(d) as load:
@@ -220,6 +226,7 @@ def test_postgresql_restart_gives_only_503s_and_leaves_no_job_stuck(deployment):
     assert not load.bad, load.bad[:20]
     statuses = {s for *_, s in load.seen}
     assert 503 in statuses and statuses <= {200, 202, 503}, load.seen
+    assert load.seen[("POST", "flutter", 200)] > 0, load.seen  # evaluations answered before and after the outage
     jobs = _wait_all_final(d, 400)
     assert {j["status"] for j in jobs} == {"succeeded"}, [(j["kind"], j["status"], j["error"]) for j in jobs]
     assert d.worker.proc.poll() is None, d.logs()
