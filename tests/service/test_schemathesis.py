@@ -49,6 +49,7 @@ def _seed(app, client: TestClient) -> dict[str, int]:
     from romams_core.basis import build_basis
     from romams_core.mesh import standard_mesh
     from romams_core.wing import template
+    from worker.cache import LruCache
 
     store = app.state.service.store
     auth = {"Authorization": f"Bearer {KEY}"}
@@ -57,8 +58,11 @@ def _seed(app, client: TestClient) -> dict[str, int]:
     snaps = np.linalg.qr(np.random.default_rng(0).standard_normal((n, 2)))[0]
     bid = store.bases.save(wid, build_basis(snaps, n_modes=2), {"samples": 2, "modes": 2})
     store.wings.set_active_basis(wid, bid)
-    with pytest.MonkeyPatch.context() as mp:
+    with pytest.MonkeyPatch.context() as mp:  # the worker's code on this store, with caches of its own
         mp.setattr(worker.context, "_STORE", [store])
+        cache = LruCache(8)
+        mp.setattr(worker.context, "OBJECTS", cache)
+        mp.setattr(worker.evaluation, "OBJECTS", cache)
         job = client.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.5, "options": RFA_FAST}, headers=auth).json()
         worker.tasks.training_job(job["job_id"])
         rom_id = store.jobs.get(job["job_id"])["result"]["rom_id"]
