@@ -78,14 +78,22 @@ IMAGE: dict[int | str, dict[str, Any]] = {200: {"description": "the plot (PNG or
                                                             "image/svg+xml": {"schema": {"type": "string"}}}}}
 
 
+BEARER = {"type": "http", "scheme": "bearer",
+          "description": "an API key of ROMAMS_API_KEYS (mutating endpoints, when keys are configured)"}
+
+
 def finish(schema: dict[str, Any]) -> dict[str, Any]:
-    """Add the Problem schema; drop the empty ``application/json`` FastAPI puts next to another content type."""
-    components = schema.setdefault("components", {}).setdefault("schemas", {})
+    """Add the Problem schema and the Bearer security scheme of the routes that answer 401; drop the empty
+    ``application/json`` FastAPI puts next to another content type."""
+    schema.setdefault("components", {}).setdefault("securitySchemes", {})["bearer"] = BEARER
+    components = schema["components"].setdefault("schemas", {})
     problem = ProblemDetails.model_json_schema(ref_template="#/components/schemas/{model}")
     components.update(problem.pop("$defs", {}))
     components["Problem"] = problem
     for path in schema.get("paths", {}).values():
         for operation in path.values():
+            if "401" in operation.get("responses", {}):
+                operation.setdefault("security", [{"bearer": []}])
             for response in operation.get("responses", {}).values():
                 content = response.get("content", {})
                 if len(content) > 1 and not content.get("application/json", {}).get("schema", True):

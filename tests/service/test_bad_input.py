@@ -210,6 +210,9 @@ def test_openapi_documents_the_contract(client):
     for status in ("400", "401", "403", "404", "409", "413", "422", "503"):
         assert set(post[status]["content"]) == {"application/problem+json"}, status
     assert "Retry-After" in post["503"]["headers"] and "WWW-Authenticate" in post["401"]["headers"]
+    assert spec["components"]["securitySchemes"]["bearer"]["scheme"] == "bearer"
+    assert paths["/api/v1/wings"]["post"]["security"] == [{"bearer": []}] and "security" not in paths[
+        "/api/v1/wings"]["get"]  # reads need no key
     assert {"title", "status", "detail"} <= set(spec["components"]["schemas"]["Problem"]["required"])
     r = client.delete("/api/v1/wings")  # 405 names every method of the path, not those of its first route
     assert r.status_code == 405 and r.headers["allow"] == "GET, POST"
