@@ -13,7 +13,7 @@ from fastapi.staticfiles import StaticFiles
 from starlette.types import ASGIApp
 
 from api import openapi, problems
-from api.deps import Service, service
+from api.deps import Service, service, single_query_values
 from api.middleware import RequestGuard, SecurityHeaders
 from romams import __version__
 from romams.jobs import StaleSweeper
@@ -55,7 +55,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
             if sw is not None:
                 sw.stop()
 
-    app = RomamsAPI(title="romams", version=__version__, lifespan=lifespan,
+    app = RomamsAPI(title="romams", version=__version__, lifespan=lifespan, dependencies=[Depends(single_query_values)],
                   description="ROM-AMS flutter service: wings, PCA bases, aerodynamic ROM training, flutter "
                               "evaluation of arbitrary structures. Errors are RFC 9457 problem+json.")
     app.state.service = Service(settings=settings, store=store, celery=celery)

@@ -228,3 +228,13 @@ def test_unreachable_broker_gives_503_and_a_failed_job(tmp_path):
         problem(r, 503, contains="broker")
         jobs = c.get("/api/v1/jobs").json()
         assert len(jobs) == 1 and jobs[0]["status"] == "failed" and "could not enqueue" in jobs[0]["error"]
+
+
+def test_a_query_parameter_given_twice_is_422_naming_it(client):
+    wid = client.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
+    for path, name in ((f"/api/v1/wings/{wid}/roms?basis_id=1&basis_id=2", "basis_id"),
+                       ("/api/v1/jobs?limit=5&kind=basis&limit=6", "limit"),
+                       ("/api/v1/evaluations?wing_id=1&wing_id=1", "wing_id")):
+        problem(client.get(path), 422, name, contains="given more than once")
+    assert client.get(f"/api/v1/wings/{wid}/roms?basis_id=1").status_code == 200
+    assert client.get("/api/v1/health?x=1&x=2").status_code == 200  # not a parameter of the route: ignored
