@@ -12,8 +12,8 @@ from fastapi.responses import RedirectResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.types import ASGIApp
 
-from api import problems
-from api.deps import Service, service
+from api import openapi, problems
+from api.deps import Service, service, single_query_values
 from api.middleware import RequestGuard, SecurityHeaders
 from romams import __version__
 from romams.jobs import StaleSweeper
@@ -28,6 +28,12 @@ class RomamsAPI(FastAPI):
 
     def build_middleware_stack(self) -> ASGIApp:
         return SecurityHeaders(super().build_middleware_stack())
+
+    def openapi(self) -> dict[str, Any]:
+        """The OpenAPI document with the problem+json schema and the image content types (api.openapi)."""
+        if self.openapi_schema is None:
+            self.openapi_schema = openapi.finish(super().openapi())
+        return self.openapi_schema
 
 
 def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper: bool = True) -> FastAPI:
@@ -49,7 +55,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
             if sw is not None:
                 sw.stop()
 
-    app = RomamsAPI(title="romams", version=__version__, lifespan=lifespan,
+    app = RomamsAPI(title="romams", version=__version__, lifespan=lifespan, dependencies=[Depends(single_query_values)],
                   description="ROM-AMS flutter service: wings, PCA bases, aerodynamic ROM training, flutter "
                               "evaluation of arbitrary structures. Errors are RFC 9457 problem+json.")
     app.state.service = Service(settings=settings, store=store, celery=celery)
@@ -68,7 +74,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
     def root() -> RedirectResponse:
         return RedirectResponse("/dashboard")
 
-    @app.get("/api/v1/health", tags=["meta"], responses={503: {"description": "the database is unavailable"}})
+    @app.get("/api/v1/health", tags=["meta"], responses=openapi.problems(503))
     def health(svc: Service = Depends(service)) -> dict[str, Any]:
         """Liveness + database check (503 problem with Retry-After while the database is unavailable)."""
         return {"status": "ok", "version": __version__, "database": svc.store.ping()}

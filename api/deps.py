@@ -52,6 +52,15 @@ def require_key(request: Request) -> None:
         raise problem
 
 
+def single_query_values(request: Request) -> None:
+    """A declared query parameter given more than once is a 422 naming it: the API has no list-valued query
+    parameter, and Starlette would silently take the last of them."""
+    dependant = getattr(request.scope.get("route"), "dependant", None)
+    for param in getattr(dependant, "query_params", ()):
+        if len(request.query_params.getlist(param.alias)) > 1:
+            raise invalid(param.alias, "given more than once")
+
+
 def no_nul(value: Any, field: str) -> Any:
     """``value`` unchanged unless a string in it (a key or a value of a nested JSON object, at any depth) holds a
     NUL character, which PostgreSQL text cannot store: then 422 naming the place (``field`` + the path inside)."""

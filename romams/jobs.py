@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from romams.persistence import FINAL, JobStatus, Store, UnitOfWork
+from romams.persistence import FINAL, DatabaseUnavailable, JobStatus, Store, UnitOfWork
 from romams.services.errors import error_dict
 from romams.services.queue import FINALIZE_FOR_KIND, TASK_FOR_KIND
 
@@ -175,6 +175,15 @@ def store_and_finish(store: Store, job_id: str, save: Callable[[UnitOfWork], dic
     return result
 
 
+def end_cancelled(store: Store, job_id: str) -> None:
+    """A job whose body stopped on ``Cancelled``: cancelled, and if it is (not finished by another delivery), so
+    are its active children: a fan-out parent that created its chunks after the cancel leaves none queued."""
+    with store.unit_of_work() as uow:
+        uow.jobs.finish(job_id, JobStatus.CANCELLED, message="cancelled")
+        if uow.jobs.status(job_id) == JobStatus.CANCELLED:
+            uow.jobs.cancel(job_id)
+
+
 def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressFn], Any], *, max_deliveries: int,
             heartbeat_s: float, count_delivery: bool = True, finish: bool = True,
             reply: Callable[[Outcome], None] | None = None) -> Outcome:
@@ -197,8 +206,10 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
         with _Heartbeat(store, job_id, heartbeat_s):
             result = body(job, progress_callback(store, job_id))
     except Cancelled:
-        store.jobs.finish(job_id, JobStatus.CANCELLED, message="cancelled")
+        end_cancelled(store, job_id)
         return Outcome(JobStatus.CANCELLED)
+    except DatabaseUnavailable:  # transient, not the job's fault: the row stays as it is for a retry or the sweeper
+        raise
     except (ValueError, KeyError, JobFailed) as exc:
         err = error_dict(exc) if isinstance(exc, ValueError) else {"status": 500, "field": None,
                                                                     "detail": str(exc), "reason": str(exc)}

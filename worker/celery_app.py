@@ -18,17 +18,31 @@ from typing import Any
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+from celery import Task  # noqa: E402
 from celery.signals import worker_process_init  # noqa: E402
 
+from romams.persistence import DatabaseUnavailable  # noqa: E402
 from romams.services.queue import EVALUATION_QUEUE, TRAINING_QUEUE, celery_config, make_celery  # noqa: E402
 from romams.settings import Settings, get_settings  # noqa: E402
 
 TASK_MODULES = ["worker.tasks", "worker.evaluation"]
 
 
+class RetryOnDatabaseOutage(Task):
+    """Base of the service's tasks: a task that meets an unavailable database (at its start, or while it runs) is
+    retried with the same task id after a growing countdown (1, 2, 4 ... 30 s, for about 10 minutes) instead of
+    being acknowledged with its job row left behind; after that the stale-job sweeper takes over."""
+
+    autoretry_for = (DatabaseUnavailable,)
+    retry_backoff = 1
+    retry_backoff_max = 30
+    retry_jitter = True
+    max_retries = 25
+
+
 def make_app(settings: Settings | None = None) -> Any:
     """The workers' Celery app for ``settings`` with the service's tasks registered."""
-    return make_celery(settings or get_settings(), include=TASK_MODULES)
+    return make_celery(settings or get_settings(), include=TASK_MODULES, task_cls=RetryOnDatabaseOutage)
 
 
 app = make_app()

@@ -11,6 +11,7 @@ from fastapi import APIRouter, Depends, Query, Response
 from fastapi.responses import JSONResponse
 
 from api.deps import Service, require_key, service, wing_or_404
+from api.openapi import FOUND, IMAGE, READ, WING, WRITE
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import BatchRequest, FlutterRequest, FlutterSummary
 from romams import jobs
@@ -22,7 +23,7 @@ from romams.services.flight import FlightCondition
 from romams.services.models import resolve_basis_id, trained_rom_ids
 from romams.services.queue import TASK_FOR_KIND
 
-router = APIRouter(tags=["flutter"])
+router = APIRouter(tags=["flutter"], responses=READ)
 
 
 def _basis_and_roms(svc: Service, wid: int, basis_id: int | None, machs: list[float] | None,
@@ -101,7 +102,8 @@ def _row_outcome(job: dict[str, Any] | None) -> dict[str, Any] | None:
 
 
 @router.post("/wings/{wing}/flutter", dependencies=[Depends(require_key)],
-             responses={200: {"model": FlutterSummary, "description": "the evaluation (v_flutter_m_s is the true "
+             responses={**WRITE, **WING,
+                        200: {"model": FlutterSummary, "description": "the evaluation (v_flutter_m_s is the true "
                                                                       "airspeed; v_eas_m_s the equivalent one)"},
                         202: {"description": "not finished within sync_timeout_s: {job_id, status}"}})
 def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = Depends(service)) -> Any:
@@ -147,7 +149,9 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
     return JSONResponse({**out["result"], "job_id": job_id})
 
 
-@router.post("/wings/{wing}/flutter/batch", dependencies=[Depends(require_key)])
+@router.post("/wings/{wing}/flutter/batch", dependencies=[Depends(require_key)],
+             responses={**WRITE, **WING, 202: {"description": "a large batch, or one not finished within "
+                                                             "sync_timeout_s: {job_id, status, n}"}})
 def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Batch of designs: results in order (synchronous up to batch_sync_max designs, else 202 with a job)."""
     wid, w = wing_or_404(svc, wing)
@@ -203,7 +207,7 @@ def list_evaluations(wing_id: int | None = Query(default=None, ge=ID_MIN, le=ID_
     return svc.store.evaluations.recent(wing_id, limit)
 
 
-@router.get("/evaluations/{evaluation_id}")
+@router.get("/evaluations/{evaluation_id}", responses=FOUND)
 def get_evaluation(evaluation_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
     """A stored evaluation: request and summary."""
     return _evaluation_or_404(svc, evaluation_id)
@@ -214,7 +218,7 @@ def flutter_results(result: Any) -> list[Any]:
     return list(getattr(result, "flutter", []) or [])
 
 
-@router.get("/evaluations/{evaluation_id}/vg")
+@router.get("/evaluations/{evaluation_id}/vg", responses=FOUND)
 def vg_data(evaluation_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
     """V-g and V-omega data of every Mach: speeds (m/s), q (Pa), damping g and frequencies (rad/s) per branch."""
     ev = _evaluation_or_404(svc, evaluation_id, full=True)
@@ -227,7 +231,7 @@ def vg_data(evaluation_id: int, svc: Service = Depends(service)) -> dict[str, An
     return to_jsonable({"evaluation_id": evaluation_id, "machs": out})
 
 
-@router.get("/evaluations/{evaluation_id}/plot.{fmt}")
+@router.get("/evaluations/{evaluation_id}/plot.{fmt}", response_class=Response, responses={**FOUND, **IMAGE})
 def evaluation_plot(evaluation_id: int, fmt: Literal["png", "svg"], kind: Literal["vg", "envelope"] = "vg",
                     mach: float | None = Query(default=None, gt=0, lt=5), svc: Service = Depends(service)) -> Response:
     """V-g / V-f plot of one Mach (default: the first), or the envelope of this design vs the baseline (PNG/SVG)."""

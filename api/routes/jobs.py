@@ -7,10 +7,11 @@ from typing import Any
 from fastapi import APIRouter, Depends, Query
 
 from api.deps import Service, no_nul, require_key, service
+from api.openapi import FOUND, READ, WRITE, problems
 from api.problems import Problem
 from romams.persistence import JobStatus
 
-router = APIRouter(tags=["jobs"])
+router = APIRouter(tags=["jobs"], responses=READ)
 
 
 def job_or_404(svc: Service, job_id: str) -> dict[str, Any]:
@@ -31,13 +32,13 @@ def list_jobs(status: JobStatus | None = None,
     return svc.store.jobs.recent(limit=limit, status=status, kind=kind, top_level=not include_children)
 
 
-@router.get("/jobs/{job_id}")
+@router.get("/jobs/{job_id}", responses=FOUND)
 def get_job(job_id: str, svc: Service = Depends(service)) -> dict[str, Any]:
     """One job: status, progress 0..1, message, result, error, timestamps."""
     return job_or_404(svc, job_id)
 
 
-@router.post("/jobs/{job_id}/cancel", dependencies=[Depends(require_key)])
+@router.post("/jobs/{job_id}/cancel", dependencies=[Depends(require_key)], responses={**WRITE, **problems(404, 409)})
 def cancel_job(job_id: str, svc: Service = Depends(service)) -> dict[str, Any]:
     """Cancel a queued or running job (its task stops at its next progress step)."""
     job = job_or_404(svc, job_id)

@@ -9,9 +9,10 @@ from typing import Any
 from fastapi import APIRouter, Depends, File, UploadFile
 
 from api.deps import Service, require_key, service
+from api.openapi import READ, WRITE
 from api.problems import Problem, from_value_error, invalid
 
-router = APIRouter(tags=["modes"])
+router = APIRouter(tags=["modes"], responses=READ)
 
 
 async def _save(upload: UploadFile, folder: Path, name: str, limit: int, field: str) -> Path:
@@ -32,7 +33,7 @@ def _filename(upload: UploadFile) -> str:
     return (upload.filename or "").replace("\x00", "")[:190]
 
 
-@router.post("/modes", status_code=201, dependencies=[Depends(require_key)])
+@router.post("/modes", status_code=201, dependencies=[Depends(require_key)], responses=WRITE)
 async def upload_modes(bdf: UploadFile | None = File(default=None), op2: UploadFile | None = File(default=None),
                        file: UploadFile | None = File(default=None),
                        svc: Service = Depends(service)) -> dict[str, Any]:

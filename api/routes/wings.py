@@ -9,6 +9,7 @@ from typing import Any, Literal
 from fastapi import APIRouter, Depends, Query, Response
 
 from api.deps import WING_NAME_MAX, Service, no_nul, require_key, service, wing_or_404
+from api.openapi import FOUND, IMAGE, READ, WING, WRITE, problems
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import ActiveBasis, BasisRequest, Created, JobRef, RomRequest, WingCreate
 from romams.jobs import submit
@@ -17,7 +18,7 @@ from romams.services.errors import ServiceError
 from romams.services.models import resolve_basis_id
 from romams.services.training import allowed_options, available, check_options, rom_identity
 
-router = APIRouter(tags=["wings"])
+router = APIRouter(tags=["wings"], responses=READ)
 
 
 
@@ -33,7 +34,8 @@ def wing_view(wid: int, wing: Any, svc: Service) -> dict[str, Any]:
             "definition": info.get("definition", {}).get("data")}
 
 
-@router.post("/wings", status_code=201, response_model=Created, dependencies=[Depends(require_key)])
+@router.post("/wings", status_code=201, response_model=Created, dependencies=[Depends(require_key)],
+             responses={**WRITE, **problems(409)})
 def create_wing(body: WingCreate, svc: Service = Depends(service)) -> dict[str, int]:
     """Create a wing from a template ({"template": "cropped-delta", "name": ...}) or a full definition."""
     from romams_core import wing as wing_mod
@@ -75,14 +77,15 @@ def list_wings(svc: Service = Depends(service)) -> list[dict[str, Any]]:
     return out
 
 
-@router.get("/wings/{wing}")
+@router.get("/wings/{wing}", responses=WING)
 def get_wing(wing: str, svc: Service = Depends(service)) -> dict[str, Any]:
     """One wing (by id or name) with its design variables."""
     wid, w = wing_or_404(svc, wing)
     return wing_view(wid, w, svc)
 
 
-@router.post("/wings/{wing}/basis", status_code=202, response_model=JobRef, dependencies=[Depends(require_key)])
+@router.post("/wings/{wing}/basis", status_code=202, response_model=JobRef, dependencies=[Depends(require_key)],
+             responses={**WRITE, **WING, 200: {"model": JobRef, "description": "the same basis job is running"}})
 def start_basis(wing: str, body: BasisRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Start a basis job (LHS samples x modal analyses -> PCA basis; a wing without design variables: its own
     modes)."""
@@ -101,7 +104,7 @@ def start_basis(wing: str, body: BasisRequest, response: Response, svc: Service 
     return {"job_id": submit(svc.store, svc.celery, "basis", params, wing_id=wid, key=key)}
 
 
-@router.put("/wings/{wing}/active-basis", dependencies=[Depends(require_key)])
+@router.put("/wings/{wing}/active-basis", dependencies=[Depends(require_key)], responses={**WRITE, **WING})
 def set_active_basis(wing: str, body: ActiveBasis, svc: Service = Depends(service)) -> dict[str, Any]:
     """Make one of the wing's bases the active one (what evaluations and trainings use unless told otherwise)."""
     wid, _ = wing_or_404(svc, wing)
@@ -110,7 +113,7 @@ def set_active_basis(wing: str, body: ActiveBasis, svc: Service = Depends(servic
     return {"wing_id": wid, "active_basis_id": bid}
 
 
-@router.get("/wings/{wing}/bases")
+@router.get("/wings/{wing}/bases", responses=WING)
 def list_bases(wing: str, svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Bases of a wing, newest first: parameters, size m, MAC table (worst MAC by m, per-sample MACs)."""
     wid, _ = wing_or_404(svc, wing)
@@ -148,7 +151,8 @@ def _train_options(solver: str, options: dict[str, Any], n_shapes: int | None = 
     return dict(sorted(options.items()))
 
 
-@router.post("/wings/{wing}/roms", status_code=202, dependencies=[Depends(require_key)])
+@router.post("/wings/{wing}/roms", status_code=202, dependencies=[Depends(require_key)],
+             responses={**WRITE, **WING, 200: {"description": "every model exists or is training: no new job"}})
 def start_training(wing: str, body: RomRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Train ROMs: one job per Mach; an identical request returns the existing model or the running job."""
     wid, wdef = wing_or_404(svc, wing)
@@ -199,7 +203,7 @@ def start_training(wing: str, body: RomRequest, response: Response, svc: Service
     return {"job_ids": [i["job_id"] for i in items], "items": items}
 
 
-@router.get("/wings/{wing}/roms")
+@router.get("/wings/{wing}/roms", responses=WING)
 def list_roms(wing: str, basis_id: int | None = Query(default=None, ge=ID_MIN, le=ID_MAX),
               svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Trained ROMs of a wing: Mach, solver settings, validation fit error."""
@@ -235,14 +239,14 @@ def _mean_flow_or_404(svc: Service, rom_id: int) -> dict[str, Any]:
     return dict(mean_flow)
 
 
-@router.get("/roms/{rom_id}/mean-flow")
+@router.get("/roms/{rom_id}/mean-flow", responses=FOUND)
 def rom_mean_flow(rom_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
     """Steady mean flow of a TSD ROM: linear surface Cp (upper/lower) on the wing nodes (x/c by span fraction),
     the sonic Cp*, and the pseudo-time convergence (steps, converged, residual history)."""
     return _mean_flow_or_404(svc, rom_id)
 
 
-@router.get("/roms/{rom_id}/mean-flow.{fmt}")
+@router.get("/roms/{rom_id}/mean-flow.{fmt}", response_class=Response, responses={**FOUND, **IMAGE})
 def rom_mean_flow_plot(rom_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
     """Upper/lower surface Cp of a TSD ROM's mean flow at four span stations, sonic Cp marked (PNG or SVG)."""
     from api.routes.flutter import figure_response
@@ -251,7 +255,7 @@ def rom_mean_flow_plot(rom_id: int, fmt: Literal["png", "svg"], svc: Service = D
     return figure_response(plot_mean_flow_cp(_mean_flow_or_404(svc, rom_id)), fmt)
 
 
-@router.get("/bases/{basis_id}/shapes.{fmt}")
+@router.get("/bases/{basis_id}/shapes.{fmt}", response_class=Response, responses={**FOUND, **IMAGE})
 def basis_shapes_plot(basis_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
     """Plot of the basis shapes on the planform (PNG or SVG)."""
     from api.routes.flutter import figure_response
@@ -263,7 +267,7 @@ def basis_shapes_plot(basis_id: int, fmt: Literal["png", "svg"], svc: Service = 
     return figure_response(plot_basis_shapes(mesh, basis.shapes, basis.singular_values), fmt)
 
 
-@router.get("/bases/{basis_id}/mac.{fmt}")
+@router.get("/bases/{basis_id}/mac.{fmt}", response_class=Response, responses={**FOUND, **IMAGE})
 def basis_mac_plot(basis_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
     """Worst snapshot MAC against the number of basis shapes (PNG or SVG)."""
     from api.routes.flutter import figure_response

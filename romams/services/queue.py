@@ -91,11 +91,12 @@ def celery_config(settings: Settings) -> dict[str, Any]:
     }
 
 
-def make_celery(settings: Settings | None = None, include: list[str] | None = None) -> Any:
-    """A Celery app for ``settings``; the API uses it (no tasks) to send tasks by name and read results."""
+def make_celery(settings: Settings | None = None, include: list[str] | None = None, task_cls: Any = None) -> Any:
+    """A Celery app for ``settings``; the API uses it (no tasks) to send tasks by name and read results, the
+    workers with their task modules (``include``) and base task class (``task_cls``)."""
     from celery import Celery
 
     settings = settings or get_settings()
-    celery = Celery("romams", include=include or [])
+    celery = Celery("romams", include=include or [], task_cls=task_cls)
     celery.conf.update(celery_config(settings))
     return celery

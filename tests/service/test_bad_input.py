@@ -204,6 +204,19 @@ def test_openapi_documents_the_contract(client):
               "/api/v1/wings/{wing}/flutter", "/api/v1/wings/{wing}/flutter/batch", "/api/v1/modes",
               "/api/v1/evaluations/{evaluation_id}/vg", "/api/v1/evaluations/{evaluation_id}/plot.{fmt}"):
         assert p in paths, p
+    for p in ("/api/v1/evaluations/{evaluation_id}/plot.{fmt}", "/api/v1/bases/{basis_id}/shapes.{fmt}"):
+        assert set(paths[p]["get"]["responses"]["200"]["content"]) == {"image/png", "image/svg+xml"}, p
+    post = paths["/api/v1/wings/{wing}/flutter"]["post"]["responses"]
+    for status in ("400", "401", "403", "404", "409", "413", "422", "503"):
+        assert set(post[status]["content"]) == {"application/problem+json"}, status
+    assert "Retry-After" in post["503"]["headers"] and "WWW-Authenticate" in post["401"]["headers"]
+    assert spec["components"]["securitySchemes"]["bearer"]["scheme"] == "bearer"
+    assert paths["/api/v1/wings"]["post"]["security"] == [{"bearer": []}] and "security" not in paths[
+        "/api/v1/wings"]["get"]  # reads need no key
+    assert {"title", "status", "detail"} <= set(spec["components"]["schemas"]["Problem"]["required"])
+    r = client.delete("/api/v1/wings")  # 405 names every method of the path, not those of its first route
+    assert r.status_code == 405 and r.headers["allow"] == "GET, POST"
+    assert r.headers["content-type"] == "application/problem+json"
     assert client.get("/api/v1/health").json()["status"] == "ok"
 
 
@@ -215,3 +228,13 @@ def test_unreachable_broker_gives_503_and_a_failed_job(tmp_path):
         problem(r, 503, contains="broker")
         jobs = c.get("/api/v1/jobs").json()
         assert len(jobs) == 1 and jobs[0]["status"] == "failed" and "could not enqueue" in jobs[0]["error"]
+
+
+def test_a_query_parameter_given_twice_is_422_naming_it(client):
+    wid = client.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
+    for path, name in ((f"/api/v1/wings/{wid}/roms?basis_id=1&basis_id=2", "basis_id"),
+                       ("/api/v1/jobs?limit=5&kind=basis&limit=6", "limit"),
+                       ("/api/v1/evaluations?wing_id=1&wing_id=1", "wing_id")):
+        problem(client.get(path), 422, name, contains="given more than once")
+    assert client.get(f"/api/v1/wings/{wid}/roms?basis_id=1").status_code == 200
+    assert client.get("/api/v1/health?x=1&x=2").status_code == 200  # not a parameter of the route: ignored

@@ -12,21 +12,53 @@ from romams.settings import Settings
 
 from .conftest import ROOT
 
-COMPOSE = yaml.safe_load((ROOT / "docker-compose.yml").read_text())
+TEXT = (ROOT / "docker-compose.yml").read_text()
+COMPOSE = yaml.safe_load(TEXT)
 SERVICES = COMPOSE["services"]
+WORKERS = ("worker-training", "worker-evaluation")
+
+
+def _queues(service: str) -> set[str]:
+    """Queues a worker service consumes (its ``--queues`` argument)."""
+    cmd = SERVICES[service]["command"]
+    return set(cmd[cmd.index("--queues") + 1].split(","))
 
 
 def test_services_and_dependencies():
-    assert {"redis", "postgres", "migrate", "api", "worker", "flower"} <= set(SERVICES)
-    for name in ("redis", "postgres", "api", "worker"):
+    assert {"redis", "postgres", "migrate", "api", *WORKERS, "flower"} <= set(SERVICES)
+    for name in ("redis", "postgres", "api", *WORKERS):
         assert "test" in SERVICES[name]["healthcheck"], name
     api_deps = SERVICES["api"]["depends_on"]
     assert api_deps["migrate"]["condition"] == "service_completed_successfully"
     assert api_deps["redis"]["condition"] == "service_healthy"
     assert SERVICES["migrate"]["depends_on"]["postgres"]["condition"] == "service_healthy"
-    assert SERVICES["worker"]["depends_on"]["migrate"]["condition"] == "service_completed_successfully"
-    assert "ports" not in SERVICES["worker"] and "container_name" not in SERVICES["worker"]  # scalable
-    assert SERVICES["api"]["ports"] == ["8000:8000"] and SERVICES["flower"]["ports"] == ["5555:5555"]
+    for w in WORKERS:
+        assert SERVICES[w]["depends_on"]["migrate"]["condition"] == "service_completed_successfully", w
+        assert SERVICES[w]["depends_on"]["redis"]["condition"] == "service_healthy", w
+        assert "ports" not in SERVICES[w] and "container_name" not in SERVICES[w], w  # scalable
+    assert SERVICES["api"]["ports"] == ["8000:8000"]
+
+
+def test_safe_deployment_defaults():
+    """No default API key (compose refuses to start without one), Flower on loopback only, restart policies,
+    evaluation workers apart from training workers, Redis with its append-only file."""
+    key = r"\$\{ROMAMS_API_KEY:\?[^}]+\}"  # ${VAR:?message}: an unset or empty variable stops `docker compose up`
+    for name, svc in SERVICES.items():
+        value = (svc.get("environment") or {}).get("ROMAMS_API_KEYS")
+        if value is not None:
+            assert re.fullmatch(key, value), (name, value)
+    assert "change-me" not in TEXT and ":-change" not in TEXT
+    flower = SERVICES["flower"]
+    assert all(str(p).startswith("127.0.0.1:") for p in flower["ports"]) or any(
+        a.startswith("--basic-auth") for a in flower["command"]), flower
+    for name in ("api", *WORKERS):
+        assert SERVICES[name]["restart"] == "unless-stopped", name
+    assert _queues("worker-training") == {"training"} and _queues("worker-evaluation") == {"evaluation"}
+    assert not any("evaluation" in _queues(w) and "training" in _queues(w) for w in WORKERS)
+    from worker.celery_app import app as celery
+
+    assert _queues("worker-training") | _queues("worker-evaluation") == {q.name for q in celery.conf.task_queues}
+    assert SERVICES["redis"]["command"][-2:] == ["--appendonly", "yes"]
 
 
 def test_commands_name_real_code():
@@ -37,15 +69,12 @@ def test_commands_name_real_code():
     module, attr = api_cmd[1].split(":")
     assert callable(importlib.import_module(module).create_app) and attr == "app"
     scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
-    worker_cmd = SERVICES["worker"]["command"]
-    assert worker_cmd[0] in scripts and worker_cmd[1] == "worker"
     from romams.cli import app
 
     assert "worker" in {c.name or c.callback.__name__ for c in app.registered_commands}
-    queues = worker_cmd[worker_cmd.index("--queues") + 1].split(",")
-    from worker.celery_app import app as celery
-
-    assert set(queues) == {q.name for q in celery.conf.task_queues}
+    for w in WORKERS:
+        worker_cmd = SERVICES[w]["command"]
+        assert worker_cmd[0] in scripts and worker_cmd[1] == "worker", w
     flower = SERVICES["flower"]["command"]
     assert flower[:3] == ["celery", "-A", "worker.celery_app"] and "flower" in flower
     importlib.import_module(flower[2])

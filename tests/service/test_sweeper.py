@@ -78,3 +78,52 @@ def test_fanout_parent_is_kept_alive_while_chunks_work_and_ends_with_a_failed_ch
     assert sweep_stale(store, sent, stale_s=0.03) == []
     job = store.jobs.get(parent)
     assert job["status"] == JobStatus.FAILED and "chunk 1 failed" in job["error"]
+
+
+def test_a_parent_cancelled_before_its_chunks_exist_cancels_them_when_it_stops(store):
+    """The cancel races the fan-out: it lands before the parent's chunk rows are committed (so it cannot cancel
+    them), and the parent's next progress step stops it; the chunks it created end cancelled, none is queued."""
+    from romams.jobs import run_job
+
+    parent = store.jobs.create("basis", {"samples": 4})
+
+    def body(job, progress):
+        assert store.jobs.cancel(parent)  # no chunk row yet: nothing else to cancel
+        with store.unit_of_work() as uow:
+            for i in range(2):
+                uow.jobs.create("basis-chunk", {"index": i}, parent_id=parent)
+        progress(0.02, "2 chunks")
+        raise AssertionError("not reached: the progress step of a cancelled job raises")
+
+    assert run_job(store, parent, body, max_deliveries=3, heartbeat_s=5.0).status == JobStatus.CANCELLED
+    assert [k["status"] for k in store.jobs.children(parent)] == [JobStatus.CANCELLED] * 2
+
+
+def test_a_database_outage_in_a_task_leaves_its_row_for_the_retry(store):
+    """An unavailable database is not the job's failure: run_job lets it through (the worker retries the task)."""
+    from romams.jobs import run_job
+    from romams.persistence import DatabaseUnavailable
+
+    job = store.jobs.create("training", {"mach": 0.8})
+
+    def body(job, progress):
+        raise DatabaseUnavailable("database: unavailable (test)")
+
+    with pytest.raises(DatabaseUnavailable):
+        run_job(store, job, body, max_deliveries=3, heartbeat_s=5.0)
+    row = store.jobs.get(job)
+    assert row["status"] == JobStatus.RUNNING and row["error"] is None
+    assert run_job(store, job, lambda j, p: {"ok": True}, max_deliveries=3, heartbeat_s=5.0).status == "succeeded"
+    assert store.jobs.get(job)["deliveries"] == 2
+
+
+def test_worker_tasks_retry_on_an_unavailable_database():
+    import worker.evaluation  # noqa: F401 - registers the tasks
+    import worker.tasks  # noqa: F401
+    from romams.persistence import DatabaseUnavailable
+    from worker.celery_app import app
+
+    for name in ("romams.training.basis", "romams.training.rom", "romams.evaluation.flutter",
+                 "romams.evaluation.flutter_chunk", "romams.training.basis_finalize"):
+        task = app.tasks[name]
+        assert DatabaseUnavailable in task.autoretry_for and task.max_retries >= 10, name

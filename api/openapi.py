@@ -1,0 +1,101 @@
+"""OpenAPI documentation of what the API sends besides its JSON results: problem+json errors, images.
+
+Routes declare their error responses with :func:`problems` (shared sets: ``READ`` on every API router, ``WRITE`` on
+mutating routes, ``WING`` and ``FOUND`` on routes that look a row up), and image routes with ``IMAGE``;
+:func:`finish` adds the ``Problem`` schema and drops the empty ``application/json`` entry FastAPI adds next to a
+declared content type.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from api.problems import PROBLEM_JSON
+
+PROBLEM_REF = {"$ref": "#/components/schemas/Problem"}
+RETRY_AFTER = {"Retry-After": {"description": "seconds to wait before retrying", "schema": {"type": "string"}}}
+WWW_AUTHENTICATE = {"WWW-Authenticate": {"description": "Bearer", "schema": {"type": "string"}}}
+
+#: why the API sends each error status (RFC 9457 problem+json bodies)
+DESCRIPTIONS = {
+    400: "malformed request: a body that cannot be parsed, or a Content-Length that is not a byte count",
+    401: "no Bearer API key (keys are configured): WWW-Authenticate: Bearer",
+    403: "the API key is not valid",
+    404: "no such row: `field` names the id",
+    409: "conflict with the stored state (a name taken, a job already final, a stored definition unreadable)",
+    413: "request body, upload or batch larger than its limit",
+    422: "invalid input: `field` names the first offending field, `errors` lists every one",
+    503: "the database or the broker is unavailable: retry after Retry-After seconds",
+}
+HEADERS = {401: WWW_AUTHENTICATE, 503: RETRY_AFTER}
+
+
+class FieldError(BaseModel):
+    """One validation error: the dotted path of the field and the reason."""
+
+    field: str
+    reason: str
+
+
+class ProblemDetails(BaseModel):
+    """RFC 9457 problem details (``field``: the offending input; more keys may follow, e.g. ``job_id``)."""
+
+    model_config = ConfigDict(extra="allow", title="Problem")
+
+    type: str = "about:blank"
+    title: str
+    status: int
+    detail: str
+    field: str | None = None
+    instance: str | None = None
+    errors: list[FieldError] | None = Field(default=None, description="every validation error (422)")
+
+
+def problems(*statuses: int) -> dict[int | str, dict[str, Any]]:
+    """``responses=`` entries of the problem+json errors with these statuses."""
+    out: dict[int | str, dict[str, Any]] = {}
+    for s in statuses:
+        out[s] = {"description": DESCRIPTIONS[s], "content": {PROBLEM_JSON: {"schema": PROBLEM_REF}}}
+        if s in HEADERS:
+            out[s]["headers"] = HEADERS[s]
+    return out
+
+
+#: every API route: invalid parameters, database or broker down
+READ = problems(422, 503)
+#: mutating routes: the key (checked before the body is read), the body size, a body that cannot be parsed
+WRITE = problems(400, 401, 403, 413)
+#: routes with a row id in their path
+FOUND = problems(404)
+#: routes of one wing (by id or name): not found, or its stored definition cannot be read
+WING = problems(404, 409)
+#: PNG/SVG plot routes (the extension in the path picks the format)
+IMAGE: dict[int | str, dict[str, Any]] = {200: {"description": "the plot (PNG or SVG, by the path's extension)",
+                                                "content": {"image/png": {"schema": {"type": "string",
+                                                                                     "format": "binary"}},
+                                                            "image/svg+xml": {"schema": {"type": "string"}}}}}
+
+
+BEARER = {"type": "http", "scheme": "bearer",
+          "description": "an API key of ROMAMS_API_KEYS (mutating endpoints, when keys are configured)"}
+
+
+def finish(schema: dict[str, Any]) -> dict[str, Any]:
+    """Add the Problem schema and the Bearer security scheme of the routes that answer 401; drop the empty
+    ``application/json`` FastAPI puts next to another content type."""
+    schema.setdefault("components", {}).setdefault("securitySchemes", {})["bearer"] = BEARER
+    components = schema["components"].setdefault("schemas", {})
+    problem = ProblemDetails.model_json_schema(ref_template="#/components/schemas/{model}")
+    components.update(problem.pop("$defs", {}))
+    components["Problem"] = problem
+    for path in schema.get("paths", {}).values():
+        for operation in path.values():
+            if "401" in operation.get("responses", {}):
+                operation.setdefault("security", [{"bearer": []}])
+            for response in operation.get("responses", {}).values():
+                content = response.get("content", {})
+                if len(content) > 1 and not content.get("application/json", {}).get("schema", True):
+                    del content["application/json"]
+    return schema
