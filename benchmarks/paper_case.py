@@ -58,6 +58,7 @@ from romams_core.wing import WingDefinition, cropped_delta  # noqa: E402
 
 EX = load_example("optimize_cropped_delta")  # the DE, the paper's settings and Table 6/8 values
 TABLE5_MACH = 0.87
+PSI_PA = 6894.757  # Pa per psi (the paper gives dynamic pressures in psi)
 QUICK_GENERATIONS = 20
 #: the paper's Table 5 (M 0.87): name -> (V ROM-AMS, V ROM-PMS m/s, omega ROM-AMS, omega ROM-PMS rad/s)
 PAPER_TABLE5 = {"var1": (219.53, 214.68, 561.60, 550.05), "var2": (148.56, 150.47, 252.95, 254.03)}
@@ -177,6 +178,27 @@ def comparison_rows(ams: Mapping[str, Any], pms: Mapping[str, Any]) -> list[dict
                      "mode_rom_pms": p.get("flutter_mode"), "sdoff_rom_ams": a.get("sdoff"),
                      "sdoff_rom_pms": p.get("sdoff")})
     return rows
+
+
+def flutter_rows(summary: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Per Mach of a use-case summary: flutter speed (m/s, the paper's measure and EAS), q_f (Pa and psi), omega_f
+    (rad/s), flutter mode, safe altitude (m) and the envelope margin to the benchmark (m, > 0 is safer)."""
+    margins = summary.get("envelope_margin_m") or [None] * len(summary["results"])
+    rows = []
+    for r, margin in zip(summary["results"], margins, strict=True):
+        v, eas = _speeds(r)
+        q = r.get("q_flutter_pa")
+        rows.append({"mach": r["mach"], "v": v, "v_eas": eas, "q_pa": q, "q_psi": None if q is None else q / PSI_PA,
+                     "omega": r.get("omega_flutter_rad_s"), "mode": r.get("flutter_mode"), "sdoff": r.get("sdoff"),
+                     "safe_altitude_m": r.get("safe_altitude_m"), "envelope_margin_m": margin})
+    return rows
+
+
+def structure_record(summary: Mapping[str, Any]) -> dict[str, Any]:
+    """Mass (kg), frequencies (Hz), fit MACs, feasibility and per-Mach flutter rows of one evaluated structure."""
+    return {"mass_kg": summary["mass_kg"], "frequencies_hz": summary["frequencies_hz"], "mac": summary["mac"],
+            "constraints_ok": summary["constraints_ok"], "message": summary["message"],
+            "flutter": flutter_rows(summary)}
 
 
 def ams_and_pms(models: Models, design: Any, ident: Mapping[str, Any], cache: Memo) -> tuple[dict, dict, Any, Any]:
@@ -323,6 +345,8 @@ def run(*, solver: str = "dlm", generations: int = EX.PAPER_GENERATIONS, popsize
     fixed, fixed_result = fixed_mode_shapes(models, modal_opt, own_087, ident, cache)
     t_fixed = time.perf_counter() - t0
     mass0, mass = float(baseline["mass_kg"]), float(ams["mass_kg"])
+    paper_x = [EX.PAPER_OPTIMUM[n] for n in problem.names]
+    paper_opt = structure_record(service.evaluate(0, paper_x))  # the paper's Table 6 design in this model
     figures = write_plots(plot_dir, problem, de, baseline, models, modal_opt, fixed_result) if plot_dir else []
     paper_reduction = 100.0 * (EX.PAPER_BASELINE_MASS_KG - EX.PAPER_MASS_KG) / EX.PAPER_BASELINE_MASS_KG
     return {
@@ -338,6 +362,7 @@ def run(*, solver: str = "dlm", generations: int = EX.PAPER_GENERATIONS, popsize
         "optimum_feasible": bool(de["best"]["feasible"]), "optimum_frequencies_hz": ams["frequencies_hz"],
         "envelope": [{"mach": r["mach"], "safe_altitude_m": r["safe_altitude_m"], "benchmark_safe_altitude_m":
                       b["safe_altitude_m"]} for r, b in zip(ams["results"], baseline["results"], strict=True)],
+        "baseline": structure_record(baseline), "paper_optimum_evaluated": paper_opt,
         "table7": table7(ams), "table8": t8,
         "fixed_mode_shapes": fixed, "fixed_mode_shapes_error_pct": fixed["error_pct"],
         "paper": {"mass_kg": EX.PAPER_MASS_KG, "baseline_mass_kg": EX.PAPER_BASELINE_MASS_KG,

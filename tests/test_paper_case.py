@@ -73,3 +73,13 @@ def test_fixed_modes_and_mass(result: dict) -> None:
     assert result["mass_reduction_pct"] == pytest.approx(
         100 * (result["baseline_mass_kg"] - result["optimum_mass_kg"]) / result["baseline_mass_kg"])
     assert result["paper"]["mass_reduction_pct"] == pytest.approx(28.46, abs=0.01)
+
+
+def test_baseline_and_paper_optimum_rows(result: dict) -> None:
+    """The benchmark's flutter rows at every Mach; the paper's Table 6 design evaluated (0.1668 kg here)."""
+    base = result["baseline"]["flutter"]
+    assert [r["mach"] for r in base] == list(MACHS)
+    assert all(r["v"] > 0 and r["q_psi"] == pytest.approx(r["q_pa"] / 6894.757) for r in base)
+    paper = result["paper_optimum_evaluated"]
+    assert paper["mass_kg"] == pytest.approx(0.1668, rel=2e-3)
+    assert len(paper["flutter"]) == len(MACHS)
