@@ -44,6 +44,7 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from benchmarks.accuracy_rom_ams import pct_error  # noqa: E402
 from benchmarks.run import load_example  # noqa: E402
 from romams.services.evaluation import (  # noqa: E402
     Models,
@@ -158,11 +159,6 @@ def _speeds(row: Mapping[str, Any]) -> tuple[float | None, float | None]:
     return math.sqrt(2.0 * q / rho), row.get("v_eas_m_s")
 
 
-def _pct(a: float | None, ref: float | None) -> float | None:
-    """100 (a / ref - 1), or None when either is missing."""
-    return None if a is None or ref is None or ref == 0 else 100.0 * (a / ref - 1.0)
-
-
 def comparison_rows(ams: Mapping[str, Any], pms: Mapping[str, Any]) -> list[dict[str, Any]]:
     """Per Mach: flutter speed (m/s) and frequency (rad/s) by ROM-AMS and ROM-PMS, relative errors in %."""
     by = {round(r["mach"], 6): r for r in pms["results"]}
@@ -171,8 +167,8 @@ def comparison_rows(ams: Mapping[str, Any], pms: Mapping[str, Any]) -> list[dict
         p = by[round(a["mach"], 6)]
         (va, ea), (vp, ep) = _speeds(a), _speeds(p)
         wa, wp = a.get("omega_flutter_rad_s"), p.get("omega_flutter_rad_s")
-        rows.append({"mach": a["mach"], "v_rom_ams": va, "v_rom_pms": vp, "error_pct": _pct(va, vp),
-                     "omega_rom_ams": wa, "omega_rom_pms": wp, "omega_error_pct": _pct(wa, wp),
+        rows.append({"mach": a["mach"], "v_rom_ams": va, "v_rom_pms": vp, "error_pct": pct_error(va, vp),
+                     "omega_rom_ams": wa, "omega_rom_pms": wp, "omega_error_pct": pct_error(wa, wp),
                      "f_rom_ams_hz": a.get("frequency_hz"), "f_rom_pms_hz": p.get("frequency_hz"),
                      "v_eas_rom_ams": ea, "v_eas_rom_pms": ep, "mode_rom_ams": a.get("flutter_mode"),
                      "mode_rom_pms": p.get("flutter_mode"), "sdoff_rom_ams": a.get("sdoff"),
@@ -231,7 +227,7 @@ def table5(models: Models, ident: Mapping[str, Any], cache: Memo) -> tuple[list[
         paper = PAPER_TABLE5[name]
         row = {"design": name, "lhs_sample": k, "x": dict(zip(models.wing.variable_names, x, strict=True)),
                **comparison_rows(ams, pms)[0], "mac": ams["mac"], "frequencies_hz": ams["frequencies_hz"],
-               "paper": {"v_rom_ams": paper[0], "v_rom_pms": paper[1], "error_pct": _pct(paper[0], paper[1]),
+               "paper": {"v_rom_ams": paper[0], "v_rom_pms": paper[1], "error_pct": pct_error(paper[0], paper[1]),
                          "omega_rom_ams": paper[2], "omega_rom_pms": paper[3]}}
         rows.append(row)
     return rows, {"samples": [i, j], "mean_mode_mac_between_them": pair_mac}
@@ -252,10 +248,10 @@ def fixed_mode_shapes(models: Models, modal_opt: Any, v_own: float | None, ident
     mac_shapes = [float(mac(base.shapes[:, k], modal_opt.shapes[:, k])) for k in range(base.shapes.shape[1])]
     return {"mach": TABLE5_MACH, "v_own_modes": v_own, "v_fixed_modes": v_fixed,
             "omega_fixed_modes": row["omega_flutter_rad_s"], "flutter_mode_fixed": row["flutter_mode"],
-            "error_pct": _pct(v_fixed, v_own),
+            "error_pct": pct_error(v_fixed, v_own),
             "mac_baseline_vs_optimum_modes": mac_shapes,
             "generalized_masses": "unit: the baseline's mass-normalized shapes, stiffness diag(omega_opt^2)",
-            "paper": {**PAPER_FIXED_MODES, "error_pct": _pct(PAPER_FIXED_MODES["v_fixed_modes"],
+            "paper": {**PAPER_FIXED_MODES, "error_pct": pct_error(PAPER_FIXED_MODES["v_fixed_modes"],
                                                              PAPER_FIXED_MODES["v_own_modes"])}}, result
 
 
@@ -291,8 +287,8 @@ def with_paper_table8(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         v = EX.PAPER_TABLE8.get(round(r["mach"], 2))
         w = PAPER_TABLE8_OMEGA.get(round(r["mach"], 2))
         r["paper"] = None if v is None or w is None else {
-            "v_rom_ams": v[0], "v_rom_pms": v[1], "error_pct": _pct(v[0], v[1]),
-            "omega_rom_ams": w[0], "omega_rom_pms": w[1], "omega_error_pct": _pct(w[0], w[1])}
+            "v_rom_ams": v[0], "v_rom_pms": v[1], "error_pct": pct_error(v[0], v[1]),
+            "omega_rom_ams": w[0], "omega_rom_pms": w[1], "omega_error_pct": pct_error(w[0], w[1])}
     return rows
 
 
