@@ -1,12 +1,12 @@
-"""benchmarks.paper_case: the paper's tables regenerated in process, on a small case (about 25 s).
+"""benchmarks.paper_case: the paper's tables regenerated in process, on a small case (about 15-30 s).
 
 8 LHS samples, a 6-shape basis (worst sample MAC 0.9991: below the 0.9999 criterion, so ROM-AMS is less
 accurate than with the full case's basis), ROMs at M 0.87 and 0.95 on 7 reduced frequencies, a DE of 2
 generations of 6. Bound of the ROM-AMS vs ROM-PMS flutter-speed error: 2 %. Measured on this case: 0.21 % and
-0.15 % (Table 5), -0.51 % and -0.47 % (Table 8 at M 0.87 and 0.95; frequencies within 0.37 %); the project's validated accuracy with the 0.9999 basis is 1 %
-(romams.services.evaluation.VALIDATED_ERROR), and the service's own estimate for a worst mode MAC of 0.997 is
-0.3 sqrt(1 - 0.997) = 1.6 %, so 2 % leaves room without hiding a broken ROM-AMS (a wrong projection or sign gives
-tens of percent).
+0.15 % (Table 5), -0.51 % and -0.47 % (Table 8 at M 0.87 and 0.95; frequencies within 0.37 %). The project's
+validated accuracy with the 0.9999 basis is 1 % (romams.services.evaluation.VALIDATED_ERROR), and the
+service's own estimate for a worst mode MAC of 0.997 is 0.3 sqrt(1 - 0.997) = 1.6 %, so 2 % leaves room
+without hiding a broken ROM-AMS (a wrong projection or sign gives tens of percent).
 """
 
 from __future__ import annotations
