@@ -6,7 +6,7 @@ generations of 6. Bound of the ROM-AMS vs ROM-PMS flutter-speed error: 2 %. Meas
 0.15 % (Table 5), -0.51 % and -0.47 % (Table 8 at M 0.87 and 0.95; frequencies within 0.37 %). The project's
 validated accuracy with the 0.9999 basis is 1 % (romams.services.evaluation.VALIDATED_ERROR), and the
 service's own estimate for a worst mode MAC of 0.997 is 0.3 sqrt(1 - 0.997) = 1.6 %, so 2 % leaves room
-without hiding a broken ROM-AMS (a wrong projection or sign gives tens of percent).
+without hiding a broken ROM-AMS (wrong shapes give tens of percent: the same run's frozen-shape case is -38 %).
 """
 
 from __future__ import annotations
