@@ -55,7 +55,7 @@ def _fom_one(args: tuple[Any, np.ndarray, np.ndarray, float, float, str, str]) -
             "mode": res.flutter_mode, "q": res.q_flutter_pa, "seconds": time.perf_counter() - t0}
 
 
-def _pct(a: float | None, ref: float | None) -> float | None:
+def pct_error(a: float | None, ref: float | None) -> float | None:
     """100 (a / ref - 1), or None when either is missing."""
     return None if a is None or ref is None else 100.0 * (a / ref - 1.0)
 
@@ -96,7 +96,7 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
                 "omega_ams": ams.omega_flutter_rad_s, "omega_pms": pms.omega_flutter_rad_s,
                 "mode_ams": ams.flutter_mode, "mode_pms": pms.flutter_mode,
                 "found_ams": ams.flutter_found, "found_pms": pms.flutter_found,
-                "v_error_pct": _pct(_eas(ams.q_flutter_pa), _eas(pms.q_flutter_pa)) if both else None,
+                "v_error_pct": pct_error(_eas(ams.q_flutter_pa), _eas(pms.q_flutter_pa)) if both else None,
                 "omega_error_pct": 100.0 * (ams.omega_flutter_rad_s / pms.omega_flutter_rad_s - 1.0) if both else None,
             })
             if i < n_fom:
@@ -104,10 +104,10 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
                 rows[-1].update({
                     "v_fom": f["v"], "omega_fom": f["omega"], "mode_fom": f["mode"], "found_fom": f["found"],
                     "fom_seconds": f["seconds"],
-                    "v_error_ams_fom_pct": _pct(_eas(ams.q_flutter_pa), f["v"]),
-                    "v_error_pms_fom_pct": _pct(_eas(pms.q_flutter_pa), f["v"]),
-                    "omega_error_ams_fom_pct": _pct(ams.omega_flutter_rad_s, f["omega"]),
-                    "omega_error_pms_fom_pct": _pct(pms.omega_flutter_rad_s, f["omega"]),
+                    "v_error_ams_fom_pct": pct_error(_eas(ams.q_flutter_pa), f["v"]),
+                    "v_error_pms_fom_pct": pct_error(_eas(pms.q_flutter_pa), f["v"]),
+                    "omega_error_ams_fom_pct": pct_error(ams.omega_flutter_rad_s, f["omega"]),
+                    "omega_error_pms_fom_pct": pct_error(pms.omega_flutter_rad_s, f["omega"]),
                 })
 
     def stats(sel: list[dict[str, Any]]) -> dict[str, Any]:

@@ -77,7 +77,7 @@ def log(msg: str) -> None:
     print(f"[bench] {msg}", file=sys.stderr, flush=True)
 
 
-def _load_example(name: str) -> Any:
+def load_example(name: str) -> Any:
     """A script of examples/ as a module."""
     spec = importlib.util.spec_from_file_location(name, ROOT / "examples" / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)
@@ -282,7 +282,7 @@ def _cpu_s(pids: list[int]) -> float:
 
 def _prepare(client: Any, samples: int, machs: tuple[float, ...]) -> tuple[int, dict[str, float]]:
     """Wing, basis and ROMs on the service (reused when present); setup timings."""
-    ex = _load_example("optimize_cropped_delta")
+    ex = load_example("optimize_cropped_delta")
     t0 = time.perf_counter()
     wid = ex.prepare_service(client, "cropped-delta", machs, samples, 0, _ident()["options"], log=log, progress=False,
                              solver=SOLVER["name"])
@@ -414,7 +414,7 @@ def optimization(data_dir: Path, generations: int, popsize: int, workers: int = 
     from benchmarks.live_service import LiveService
     from client import FlutterProblem, RomamsClient
 
-    ex = _load_example("optimize_cropped_delta")
+    ex = load_example("optimize_cropped_delta")
     with LiveService(data_dir, concurrency=workers) as svc, RomamsClient(svc.url, timeout=600) as client:
         t0 = time.perf_counter()
         wid, setup = _prepare(client, 25, MACHS)
