@@ -168,7 +168,9 @@ MINIMAL_RTOL = 1e-11  # residue singular values below this x the largest one are
 
 def _pole_clusters(lam: np.ndarray) -> list[np.ndarray] | None:
     """Indices of equal poles (1e-9 relative), real poles and upper half-plane ones only (their conjugates are
-    implied); None when the lower half-plane poles are not the conjugates of the upper ones."""
+    implied); None when the lower half-plane poles are not the conjugates of the upper ones, or there are none."""
+    if lam.size == 0:  # an aero model without states (quasi-steady terms only)
+        return None
     scale = 1e-9 * max(float(np.max(np.abs(lam))), 1e-300)
     real = np.abs(lam.imag) <= scale
     upper, lower = np.nonzero(~real & (lam.imag > 0))[0], np.nonzero(~real & (lam.imag < 0))[0]
