@@ -215,3 +215,18 @@ def test_pitching_flat_plate_follows_linear_theory():
     assert tsd["cl_alpha_phase_deg"] == pytest.approx(lin["cl_alpha_phase_deg"], abs=3.0)
     assert tsd["cm_alpha_mag"] == pytest.approx(lin["cm_alpha_mag"], rel=0.15)
     assert tsd["cm_alpha_phase_deg"] == pytest.approx(lin["cm_alpha_phase_deg"], abs=4.0)
+
+
+@pytest.mark.parametrize("mode", ["plunge", "pitch"])
+def test_high_frequency_flat_plate_follows_linear_theory(mode):
+    """2-D flat plate, M 0.5, k 1 (semichord), plunge or pitch about c/4, against the DLM root strip of an AR 40 wing
+    (benchmarks.tsd_2d_harmonic; 17,520 nodes, 6 cycles, about 5 s of TSD each). Measured: CL 1.010 / -1.7 deg
+    (plunge) and 1.013 / -2.7 deg (pitch) of the strip's. Before the wake delay was measured from the last wing node
+    (docs/transonic.md 7.3), the trailing edge carried a spurious pressure jump and the lift was 1.066 / -2.7 deg and
+    1.064 / -2.9 deg; 3 % separates the two. The phase allows 4 deg: the strip itself differs from a 2-D Possio
+    solution by 3.4 deg here (the TSD lies between the two)."""
+    from benchmarks.tsd_2d_harmonic import compare
+
+    row = compare(0.5, 1.0, mode)
+    assert row["magnitude_ratio"] == pytest.approx(1.0, abs=0.03)
+    assert abs(row["phase_deg"]) < 4.0
