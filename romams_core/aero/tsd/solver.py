@@ -89,10 +89,10 @@ def substep_inputs(signals: np.ndarray, n_int: int, dt_star: float) -> tuple[np.
 
     Sample n is reached at the end of signal step n (u = 0 before the first). Inside step n the motion is the cubic
     through samples n-3 .. n (zero before the start), and the rate is that cubic's derivative: causal, 4th-order in
-    the displacement and continuous across samples to 3rd order. Holding the rate at (u_n - u_n-1) / dt_star over the
-    step, as a linear interpolation does, lags every rate-driven load by half a signal step and samples the load
-    right after each jump of the rate: on AGARD 445.6 at M 0.7, k 0.95 it put -10 deg on the bending GAF column and
-    +5 %, -6 deg on the third mode's (docs/transonic.md 7.3).
+    the displacement, and the rate jumps at a sample only by O(dt_star^3). Holding the rate at (u_n - u_n-1) / dt_star
+    over the step, as a linear interpolation does, lags every rate-driven load by half a signal step and samples the
+    load right after each jump of the rate: on AGARD 445.6 at M 0.7, k 0.95 it put -10 deg on the bending GAF column
+    and +5 %, -6 deg on the third mode's (docs/transonic.md 7.3).
     """
     n_t, m = signals.shape
     pad = np.concatenate([np.zeros((3, m)), signals], axis=0)  # pad[n + 3] = u_n
