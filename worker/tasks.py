@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from romams.jobs import ProgressFn, fanout_outcome, send, store_and_finish
+from romams.jobs import BrokerUnavailable, ProgressFn, fanout_outcome, send, store_and_finish
 from romams.persistence import JobStatus, UnitOfWork
 from romams.pipeline import own_mode_basis
 from romams.services.models import activate_first_basis
@@ -60,7 +60,10 @@ def basis_job(job_id: str) -> None:
         progress(0.02, f"{len(designs)} samples in {len(children)} chunks of modal analyses")
         for c in children:
             if c["status"] == JobStatus.QUEUED:
-                send(app, "romams.training.basis_chunk", c["id"], s)
+                try:
+                    send(app, "romams.training.basis_chunk", c["id"])
+                except BrokerUnavailable:  # the chunks stay queued: the sweeper re-sends them (job_queued_resend_s)
+                    break
 
     run(job_id, body, finish=False)
 

@@ -22,14 +22,19 @@ from .conftest import ROOT, WorkerProcess, service_env, wait_job
 pytestmark = pytest.mark.services
 
 
-def test_basis_training_and_worker_crash_on_postgres_and_redis(tmp_path, pg_url, redis_url):
-    env_settings = {"database_url": pg_url, "broker_url": redis_url, "heartbeat_s": 0.5, "job_stale_s": 8.0,
-                    "broker_visibility_timeout_s": 30}
+def _migrated(tmp_path, env_settings: dict) -> tuple[dict[str, str], Settings]:
+    """Worker environment and API settings of a deployment whose database was migrated to head by Alembic."""
     env = service_env(tmp_path, **env_settings)
     up = subprocess.run([sys.executable, "-m", "alembic", "upgrade", "head"], cwd=ROOT, env=env, capture_output=True,
                         text=True, timeout=120)
     assert up.returncode == 0, up.stderr
-    settings = Settings(data_dir=tmp_path, **env_settings)
+    return env, Settings(data_dir=tmp_path, **env_settings)
+
+
+def test_basis_training_and_worker_crash_on_postgres_and_redis(tmp_path, pg_url, redis_url):
+    env_settings = {"database_url": pg_url, "broker_url": redis_url, "heartbeat_s": 0.5, "job_stale_s": 8.0,
+                    "broker_visibility_timeout_s": 30}
+    env, settings = _migrated(tmp_path, env_settings)
     workers = [WorkerProcess(env, tmp_path / f"w{i}.log", concurrency=1) for i in range(2)]  # "two machines"
     try:
         with TestClient(create_app(settings)) as c:
@@ -73,11 +78,7 @@ def test_queued_jobs_survive_a_broker_that_lost_their_messages(tmp_path, pg_url,
 
     env_settings = {"database_url": pg_url, "broker_url": redis_url, "heartbeat_s": 0.5, "job_stale_s": 8.0,
                     "job_queued_resend_s": 3.0}
-    env = service_env(tmp_path, **env_settings)
-    up = subprocess.run([sys.executable, "-m", "alembic", "upgrade", "head"], cwd=ROOT, env=env, capture_output=True,
-                        text=True, timeout=120)
-    assert up.returncode == 0, up.stderr
-    settings = Settings(data_dir=tmp_path, **env_settings)
+    env, settings = _migrated(tmp_path, env_settings)
     with TestClient(create_app(settings)) as c:
         wid = c.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
         r = c.post(f"/api/v1/wings/{wid}/basis", json={"samples": 4, "modes": 3, "seed": 2})

@@ -151,7 +151,8 @@ def test_redis_restart_without_persistence_loses_no_job(deployment):
     assert r.status_code == 200, r.text
     assert time.monotonic() - t0 < 5.0
     jobs = _wait_all_final(d, 300)
-    assert {j["status"] for j in jobs} == {"succeeded"}, [(j["kind"], j["status"], j["error"]) for j in jobs]
+    assert {j["status"] for j in jobs} == {"succeeded"}, ([(j["kind"], j["status"], j["deliveries"], j["error"])
+                                                          for j in jobs if j["status"] != "succeeded"], d.logs())
     assert {training, *queued} <= {j["id"] for j in jobs}
     assert len(d.store.bases.of_wing(d.wing_id)) == 1 + len(queued)
     assert sorted(r["mach"] for r in d.store.roms.of_wing(d.wing_id)) == [0.5, 0.6]
