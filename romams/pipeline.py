@@ -124,11 +124,10 @@ def train_shape_sets(mesh: StandardMesh, shape_sets: Sequence[np.ndarray], machs
         groups = [(mesh, list(shape_sets), float(m), dict(ident)) for m in machs]
         by_mach = parallel_map(_train_group, groups, processes)
         return [[by_mach[j][i] for j in range(len(machs))] for i in range(len(shape_sets))]
-    items = [(mesh, [shape_sets[i]], float(machs[j]), dict(ident)) for j in range(len(machs))
-             for i in range(len(shape_sets))]
-    flat = iter(parallel_map(_train_group, items, processes))
-    by_item = {(i, j): next(flat)[0] for j in range(len(machs)) for i in range(len(shape_sets))}
-    return [[by_item[i, j] for j in range(len(machs))] for i in range(len(shape_sets))]
+    flat = parallel_map(_train_group, [(mesh, [shapes], float(m), dict(ident)) for shapes in shape_sets
+                                       for m in machs], processes)
+    n = len(machs)
+    return [[rom for (rom,) in flat[i * n:(i + 1) * n]] for i in range(len(shape_sets))]
 
 
 def ensure_roms(
