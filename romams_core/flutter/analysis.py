@@ -11,6 +11,7 @@ import numpy as np
 
 from .batch import run_one, run_searches
 from .crossing import make_bracket, refine_crossing
+from .curves import vg_curves
 from .inputs import check_flutter_inputs, check_search_options
 from .model import Model, make_model
 from .point import frequency_separation, modal_shares, single_mode_unstable
@@ -92,6 +93,7 @@ def flutter_search(se: _Search) -> Solve[FlutterResult]:
                                 lag_root_flagged=path.lag)
     if path.first_unstable is None:
         msg = f"no flutter up to {sw.range_text()}{_lag_note(path)}"
+        head["curves"] = yield from vg_curves(tracker, path, None)
         return FlutterResult(**no_flutter_fields(), message=msg, **head)
     br = yield from make_bracket(tracker, path)
     p_f, branch, st_f = yield from refine_crossing(tracker, br, se.rtol)
@@ -109,6 +111,7 @@ def flutter_search(se: _Search) -> Solve[FlutterResult]:
                              f"in (k <= {se.k_band:g}): the ROM is not valid there, so this crossing is not a "
                              "prediction (start the sweep where the modes are inside the band)")
     head["modal_share"] = point.pop("modal_share")
+    head["curves"] = yield from vg_curves(tracker, path, (p_f, st_f))  # plot only: after the flutter point
     return FlutterResult(**point, **head)
 
 

@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from .curves import VgCurves
+
 
 @dataclass
 class FlutterResult:
@@ -34,7 +36,9 @@ class FlutterResult:
     the flutter eigenvector. ``lag_root_flagged``: True when a tracked branch had to be continued on an
     aerodynamic lag root because no structural candidate was left (never seen in practice; the message says so).
     ``outside_band``: True when the flutter point's reduced frequency is above the band the ROM was identified
-    in (``k_band`` of flutter_analysis); the message then carries a warning.
+    in (``k_band`` of flutter_analysis); the message then carries a warning. ``curves``: the plot's V-g / V-f
+    curves from q = 0 (wind-off frequencies first), with every tracked point and extra points near each crossing
+    (``curves.VgCurves``; None in results stored before they existed).
     """
 
     mach: float
@@ -71,6 +75,7 @@ class FlutterResult:
     v_eas: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [nv] m/s, sqrt(2 q / rho_0)
     lag_root_flagged: bool = False  # a branch was continued on an aero lag root (no structural candidate)
     outside_band: bool = False  # k_flutter above the ROM's identified band (k_band): the ROM is not valid there
+    curves: VgCurves | None = None  # plot-only V-g / V-f curves from q = 0, refined near crossings (curves.py)
 
 
 def no_flutter_fields() -> dict[str, Any]:
