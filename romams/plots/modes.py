@@ -9,6 +9,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.tri import Triangulation
 
+from romams.plots.planform import CMAP, colorbar, decorate
 from romams_core.mesh import StandardMesh
 from romams_core.structure.modal import ModalResult
 
@@ -27,19 +28,17 @@ def plot_modes(modal: ModalResult, mesh: StandardMesh, title: str = "") -> Figur
         lim = float(np.max(np.abs(w))) or 1.0
         if modal.fe_triangles.size:
             tri = Triangulation(modal.fe_xy[:, 1], modal.fe_xy[:, 0], modal.fe_triangles)
-            ax.tricontourf(tri, modal.fe_shapes[:, m] / lim, levels=np.linspace(-1, 1, 21), cmap="RdBu_r")
+            ax.tricontourf(tri, np.clip(modal.fe_shapes[:, m] / lim, -1, 1), levels=np.linspace(-1, 1, 21),
+                           cmap=CMAP)
             ax.triplot(tri, color="0.6", lw=0.2)
         else:
             ax.pcolormesh(mesh.grid(mesh.y), mesh.grid(mesh.x), mesh.grid(w) / lim, shading="gouraud",
-                          cmap="RdBu_r", vmin=-1, vmax=1)
+                          cmap=CMAP, vmin=-1, vmax=1)
             ax.plot(modal.fe_xy[:, 1], modal.fe_xy[:, 0], "k.-", ms=2, lw=0.6)
-        ax.scatter(mesh.y, mesh.x, c=w / lim, cmap="RdBu_r", vmin=-1, vmax=1, s=8, edgecolors="k", linewidths=0.2)
-        ax.set_aspect("equal")
-        ax.invert_yaxis()  # leading edge at the top, span to the right
+        ax.scatter(mesh.y, mesh.x, c=w / lim, cmap=CMAP, vmin=-1, vmax=1, s=8, edgecolors="k", linewidths=0.2)
+        decorate(ax, np.concatenate([mesh.y, modal.fe_xy[:, 1]]), np.concatenate([mesh.x, modal.fe_xy[:, 0]]))
         ax.set_title(f"mode {m + 1}: {modal.frequencies_hz[m]:.2f} Hz", fontsize=9)
-        ax.set_xlabel("y (m)", fontsize=8)
-        ax.set_ylabel("x (m)", fontsize=8)
-        ax.tick_params(labelsize=7)
+    colorbar(fig, axes[:k])
     if title:
         fig.suptitle(f"{title}  (mass {modal.mass_kg:.4f} kg, {modal.n_fe_nodes} FE nodes)", fontsize=10)
     return fig
