@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-import io
 import math
 from typing import Any, Literal
 
 import numpy as np
-from fastapi import APIRouter, Depends, Query, Response
+from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import JSONResponse
 
 from api.deps import Service, require_key, service, wing_or_404
 from api.openapi import FOUND, IMAGE, READ, WING, WRITE
+from api.plot_cache import DPI, MEDIA_TYPES, NOT_MODIFIED, plot_response
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import BatchRequest, FlutterRequest, FlutterSummary
 from romams import jobs
@@ -231,10 +231,16 @@ def vg_data(evaluation_id: int, svc: Service = Depends(service)) -> dict[str, An
     return to_jsonable({"evaluation_id": evaluation_id, "machs": out})
 
 
-@router.get("/evaluations/{evaluation_id}/plot.{fmt}", response_class=Response, responses={**FOUND, **IMAGE})
-def evaluation_plot(evaluation_id: int, fmt: Literal["png", "svg"], kind: Literal["vg", "envelope"] = "vg",
-                    mach: float | None = Query(default=None, gt=0, lt=5), svc: Service = Depends(service)) -> Response:
-    """V-g / V-f plot of one Mach (default: the first), or the envelope of this design vs the baseline (PNG/SVG)."""
+@router.get("/evaluations/{evaluation_id}/plot.{fmt}", response_class=Response,
+            responses={**FOUND, **IMAGE, **NOT_MODIFIED})
+def evaluation_plot(request: Request, evaluation_id: int, fmt: Literal["png", "svg"],
+                    kind: Literal["vg", "envelope"] = "vg", mach: float | None = Query(default=None, gt=0, lt=5),
+                    axis: Literal["tas", "eas", "q"] = Query(default="tas", description=(
+                        "speed axis of the V-g plot: true airspeed (tas), equivalent airspeed (eas) or dynamic "
+                        "pressure (q)")),
+                    svc: Service = Depends(service)) -> Response:
+    """V-g / V-f plot of one Mach (default: the first) from q = 0 on the chosen speed axis, or the envelope of this
+    design against its benchmark (PNG/SVG); cached by the hash of the data drawn, with an ETag (304 on a match)."""
     from romams.plots import flutter as flutter_plots
 
     ev = _evaluation_or_404(svc, evaluation_id, full=True)
@@ -248,28 +254,16 @@ def evaluation_plot(evaluation_id: int, fmt: Literal["png", "svg"], kind: Litera
             if not found:
                 raise invalid("mach", f"{mach} is not in this evaluation; Machs: {[float(r.mach) for r in results]}")
             pick = found[0]
-        fig = flutter_plots.vg_figure(pick)
-    else:
-        base = baseline_evaluation(svc, ev)
-        fig = flutter_plots.envelope_figure({f"evaluation {evaluation_id}": ev["result"].envelope},
-                                            benchmark=None if base is None else base.envelope)
-    return figure_response(fig, fmt)
-
-
-def baseline_evaluation(svc: Service, ev: dict[str, Any]) -> Any:
-    """The stored evaluation of the wing's baseline on the same basis (full result), if there is one."""
-    for other in svc.store.evaluations.recent(ev["wing_id"], limit=500):
-        if other["basis_id"] != ev["basis_id"] or other["method"] != ev["method"]:
-            continue
-        full = svc.store.evaluations.get(other["id"], full=True) or {}
-        req = full.get("request", {})
-        if req.get("design") is None and req.get("modes_id") is None and req.get("modes") is None:
-            return full["result"]
-    return None
+        return plot_response(request, fmt, ("vg", pick, axis), lambda: flutter_plots.vg_figure(pick, axis=axis))
+    name = f"evaluation {evaluation_id}"
+    env, comp = ev["result"].envelope, getattr(ev["result"], "comparison", None)
+    comps = {} if comp is None else {name: comp}
+    return plot_response(request, fmt, ("envelope", name, env, comp),
+                         lambda: flutter_plots.envelope_figure({name: env}, comparisons=comps))
 
 
 def figure_response(fig: Any, fmt: str) -> Response:
-    """Render a matplotlib figure to a PNG/SVG response."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format=fmt, dpi=100, bbox_inches="tight")
-    return Response(buf.getvalue(), media_type="image/png" if fmt == "png" else "image/svg+xml")
+    """Render a matplotlib figure to a PNG/SVG response (uncached; plot_cache.plot_response caches by content)."""
+    from romams.plots.flutter import figure_bytes
+
+    return Response(figure_bytes(fig, fmt, dpi=DPI), media_type=MEDIA_TYPES[fmt])

@@ -6,10 +6,11 @@ import dataclasses
 import math
 from typing import Any, Literal
 
-from fastapi import APIRouter, Depends, Query, Response
+from fastapi import APIRouter, Depends, Query, Request, Response
 
 from api.deps import WING_NAME_MAX, Service, no_nul, require_key, service, wing_or_404
 from api.openapi import FOUND, IMAGE, READ, WING, WRITE, problems
+from api.plot_cache import NOT_MODIFIED, plot_response
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import ActiveBasis, BasisRequest, Created, JobRef, RomRequest, WingCreate
 from romams.jobs import submit
@@ -246,33 +247,37 @@ def rom_mean_flow(rom_id: int, svc: Service = Depends(service)) -> dict[str, Any
     return _mean_flow_or_404(svc, rom_id)
 
 
-@router.get("/roms/{rom_id}/mean-flow.{fmt}", response_class=Response, responses={**FOUND, **IMAGE})
-def rom_mean_flow_plot(rom_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
+@router.get("/roms/{rom_id}/mean-flow.{fmt}", response_class=Response,
+            responses={**FOUND, **IMAGE, **NOT_MODIFIED})
+def rom_mean_flow_plot(request: Request, rom_id: int, fmt: Literal["png", "svg"],
+                       svc: Service = Depends(service)) -> Response:
     """Upper/lower surface Cp of a TSD ROM's mean flow at four span stations, sonic Cp marked (PNG or SVG)."""
-    from api.routes.flutter import figure_response
     from romams.plots.transonic import plot_mean_flow_cp
 
-    return figure_response(plot_mean_flow_cp(_mean_flow_or_404(svc, rom_id)), fmt)
+    mean_flow = _mean_flow_or_404(svc, rom_id)
+    return plot_response(request, fmt, ("mean-flow", mean_flow), lambda: plot_mean_flow_cp(mean_flow))
 
 
-@router.get("/bases/{basis_id}/shapes.{fmt}", response_class=Response, responses={**FOUND, **IMAGE})
-def basis_shapes_plot(basis_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
-    """Plot of the basis shapes on the planform (PNG or SVG)."""
-    from api.routes.flutter import figure_response
+@router.get("/bases/{basis_id}/shapes.{fmt}", response_class=Response, responses={**FOUND, **IMAGE, **NOT_MODIFIED})
+def basis_shapes_plot(request: Request, basis_id: int, fmt: Literal["png", "svg"],
+                      svc: Service = Depends(service)) -> Response:
+    """Plot of the basis shapes on the planform, axes in m, root/tip and flow direction (PNG or SVG)."""
     from romams.plots.basis import plot_basis_shapes
     from romams_core.mesh import standard_mesh
 
     basis = _basis_or_404(svc, basis_id)
     mesh = standard_mesh(_basis_wing(svc, basis_id).planform)
-    return figure_response(plot_basis_shapes(mesh, basis.shapes, basis.singular_values), fmt)
+    return plot_response(request, fmt, ("basis-shapes", mesh.x, mesh.y, basis.shapes, basis.singular_values),
+                         lambda: plot_basis_shapes(mesh, basis.shapes, basis.singular_values))
 
 
-@router.get("/bases/{basis_id}/mac.{fmt}", response_class=Response, responses={**FOUND, **IMAGE})
-def basis_mac_plot(basis_id: int, fmt: Literal["png", "svg"], svc: Service = Depends(service)) -> Response:
-    """Worst snapshot MAC against the number of basis shapes (PNG or SVG)."""
-    from api.routes.flutter import figure_response
+@router.get("/bases/{basis_id}/mac.{fmt}", response_class=Response, responses={**FOUND, **IMAGE, **NOT_MODIFIED})
+def basis_mac_plot(request: Request, basis_id: int, fmt: Literal["png", "svg"],
+                   svc: Service = Depends(service)) -> Response:
+    """log10(1 - worst snapshot MAC) against the number of basis shapes, threshold lines (PNG or SVG)."""
     from romams.plots.basis import plot_mac_vs_basis_size
 
     b = _basis_or_404(svc, basis_id)
-    fig = plot_mac_vs_basis_size(b.min_mac_by_m, b.mac_threshold, b.n_basis, labels=["worst sample mode"])
-    return figure_response(fig, fmt)
+    parts = ("basis-mac", b.min_mac_by_m, b.mac_threshold, b.n_basis)
+    return plot_response(request, fmt, parts, lambda: plot_mac_vs_basis_size(
+        b.min_mac_by_m, b.mac_threshold, b.n_basis, labels=["worst sample mode"]))
