@@ -7,6 +7,7 @@ If-None-Match, as a browser revalidating its cache does (a 304 costs no renderin
 is another browser, answered from the server's plot cache. Usage:
 
     python -m benchmarks.dashboard_plots [--evaluations 3]
+    python -m benchmarks.dashboard_plots --figures docs   # the example figures of docs/flutter.md section 8.1
 """
 
 from __future__ import annotations
@@ -23,11 +24,12 @@ from typing import Any
 import numpy as np
 
 MACHS = (0.79, 0.87)
+STIFFNESS = 3.0  # frequency factor that puts the section's flutter q inside the envelope's altitude range
 
 
-def example_evaluation(scale: float = 1.0, benchmark: Any = None) -> Any:
-    """A StructureEvaluation of the typical section (pitch frequency x ``scale``) at MACHS, compared with
-    ``benchmark`` (an Envelope) when given."""
+def example_evaluation(scale: float = 1.0, benchmark: Any = None, stiffness: float = STIFFNESS) -> Any:
+    """A StructureEvaluation of the typical section (frequencies x ``stiffness``, pitch frequency x ``scale``) at
+    MACHS, compared with ``benchmark`` (an Envelope) when given."""
     from romams_core.envelope import compare_envelopes, envelope_from_results
     from romams_core.evaluate import StructureEvaluation
     from romams_core.flutter import flutter_analysis
@@ -35,7 +37,7 @@ def example_evaluation(scale: float = 1.0, benchmark: Any = None) -> Any:
 
     ts = TypicalSection()
     w, _ = modes(ts)
-    w = np.asarray(w, float) * np.array([1.0, scale])
+    w = np.asarray(w, float) * stiffness * np.array([1.0, scale])
     aero = jones_discrete(ts, 0.05)
     results = [flutter_analysis(w, aero, ts.c_ref, m, zeta=0.01) for m in MACHS]
     env = envelope_from_results(results)
@@ -95,11 +97,32 @@ def run(n_evaluations: int) -> dict[str, Any]:
             "other_browser_status": c3}
 
 
+def write_figures(directory: Path) -> list[str]:
+    """The docs' example figures: V-g / V-f of the typical section at M 0.87 on the EAS axis, and the envelopes of
+    a failing (pitch frequency x 0.9) and a passing design (x 1.1) against the baseline."""
+    from romams.plots.flutter import envelope_figure, figure_bytes, vg_figure
+
+    base = example_evaluation(1.0)
+    soft, stiff = example_evaluation(0.9, base.envelope), example_evaluation(1.1, base.envelope)
+    directory.mkdir(parents=True, exist_ok=True)
+    envs = {"pitch frequency x 0.9": soft.envelope, "pitch frequency x 1.1": stiff.envelope}
+    out = {"plots_vg.png": vg_figure(soft.flutter[1], axis="eas"),
+           "plots_envelope.png": envelope_figure(envs, benchmark=base.envelope)}
+    for name, fig in out.items():
+        (directory / name).write_bytes(figure_bytes(fig, "png", dpi=72))
+    return [str(directory / n) for n in out]
+
+
 def main() -> None:
     """CLI entry point."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--evaluations", type=int, default=3)
-    print(json.dumps(run(ap.parse_args().evaluations), indent=1))
+    ap.add_argument("--figures", type=Path, default=None, help="write the docs' example figures here instead")
+    args = ap.parse_args()
+    if args.figures is not None:
+        print(json.dumps(write_figures(args.figures)))
+        return
+    print(json.dumps(run(args.evaluations), indent=1))
 
 
 if __name__ == "__main__":

@@ -79,6 +79,16 @@ def _constraint(items: list[tuple[str, Envelope]], benchmark: Envelope | None,
     return None
 
 
+STATUS_NOTES = {"unsafe-in-range": "unsafe in the whole range", "safe-everywhere": "safe in the whole range"}
+
+
+def _note_clamped(ax: Axes, mach: np.ndarray, h_km: np.ndarray, status: Sequence[str]) -> None:
+    """Label the points whose safe altitude is clamped to the end of the altitude range."""
+    for m, h, st in zip(mach, h_km, status, strict=True):
+        if st in STATUS_NOTES:
+            ax.annotate(STATUS_NOTES[st], (m, h), textcoords="offset points", xytext=(4, 6), fontsize=6)
+
+
 def _limits(curves: list[np.ndarray]) -> tuple[float, float]:
     """Autoscaled altitude limits (km) of the finite values of all curves, padded by 8 % (at least 0.2 km)."""
     vals = np.concatenate([np.asarray(c, float).ravel() for c in curves]) if curves else np.zeros(1)
@@ -118,8 +128,10 @@ def envelope_figure(
         m, h = np.asarray(env.mach, float), np.asarray(env.safe_altitude_m, float) / 1e3
         if comp is None:
             ax.plot(m, h, "--s", lw=1.2, label=f"{name}: safe altitude (not judged: no benchmark)")
+            _note_clamped(ax, m, h, env.status)
             continue
-        ax.plot(m, h, "--", lw=1.2, color="0.25", label=f"{name}: envelope_ok = {comp.envelope_ok}")
+        ax.plot(m, h, "--", lw=1.2, label=f"{name}: envelope_ok = {comp.envelope_ok}")
+        _note_clamped(ax, m, h, env.status)
         colors = [PASS_COLOR if ok else FAIL_COLOR for ok in comp.ok]  # the check's own per-Mach verdict
         ax.scatter(m, h, c=colors, marker="s", s=40, zorder=3, edgecolors="k", linewidths=0.5, gid=f"verdict:{name}")
         oks.append(comp.envelope_ok)
@@ -129,7 +141,7 @@ def envelope_figure(
     ax.set_xlabel("Mach number")
     margin = items[0][1].margin if items else benchmark.margin
     ax.set_ylabel(f"lowest safe altitude (km), q <= q_f / {margin:g}^2")
-    verdict = "" if not oks else ("  -- PASS" if all(oks) else "  -- FAIL")
+    verdict = "" if len(oks) != 1 else ("  -- PASS" if oks[0] else "  -- FAIL")
     ax.set_title(title + verdict, fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=7)
