@@ -17,7 +17,9 @@ from fastapi import Request, Response
 from romams.plots.cache import PlotCache, plot_key
 
 NOT_MODIFIED: dict[int | str, dict[str, Any]] = {
-    304: {"description": "not modified: the plot's ETag matches If-None-Match (the data drawn has not changed)"}}
+    304: {"description": "not modified: the plot's ETag matches If-None-Match (the data drawn has not changed)",
+          "headers": {"ETag": {"description": "content hash of the data drawn and the plot options",
+                               "schema": {"type": "string"}}}}}
 MEDIA_TYPES = {"png": "image/png", "svg": "image/svg+xml"}
 DPI = 100
 
