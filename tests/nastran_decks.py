@@ -6,7 +6,7 @@ model's from a small numpy beam FE; their eigenvectors are written as SOL 103 OP
 
 from __future__ import annotations
 
-from struct import Struct
+from struct import Struct, pack
 
 import numpy as np
 import scipy.linalg
@@ -16,7 +16,11 @@ from romams_core.modes_io import _import_pynastran
 BDF, OP2 = _import_pynastran()
 
 from pyNastran.bdf.case_control_deck import CaseControlDeck  # noqa: E402
-from pyNastran.op2.tables.lama_eigenvalues.lama_objects import ComplexEigenvalues, RealEigenvalues  # noqa: E402
+from pyNastran.op2.tables.lama_eigenvalues.lama_objects import (  # noqa: E402
+    ComplexEigenvalues,
+    RealEigenvalues,
+    _write_table_header,
+)
 from pyNastran.op2.tables.oug.oug_eigenvectors import RealEigenvectorArray  # noqa: E402
 from pyNastran.op2.writer.op2_writer import TrashWriter, write_op2_header  # noqa: E402
 
@@ -47,9 +51,29 @@ def real_eigenvalues(freqs, gen_mass):
     return lama
 
 
+class _Clama(ComplexEigenvalues):
+    """pyNastran 1.4.1's CLAMA writer declares 7 words per mode and writes 6; this one declares 6."""
+
+    def write_op2(self, op2_file, op2_ascii, itable, new_result, date, is_mag_phase=False, endian=b">"):
+        if itable == -1:
+            _write_table_header(self.table_name, op2_file, op2_ascii, date)
+            itable = -3
+        self._write_table_3(op2_file, op2_ascii, new_result, itable, 0)
+        itable -= 1
+        ntotal = 6 * len(self.mode)
+        op2_file.write(pack(b"<13i", 4, itable, 4, 4, 1, 4, 4, 0, 4, 4, ntotal, 4, 4 * ntotal))
+        row = Struct(endian + b"ii4f")
+        for i, mode in enumerate(self.mode):
+            ev = self.eigenvalues[i]
+            op2_file.write(row.pack(int(mode), int(self.extraction_order[i]), ev.real, ev.imag,
+                                    float(self.cycles[i]), float(self.damping[i])))
+        op2_file.write(pack(b"<i", 4 * ntotal))
+        return itable - 1
+
+
 def flutter_eigenvalues():
     """A CLAMA table as a SOL 145 run writes it (complex eigenvalues, no generalized masses)."""
-    clama = ComplexEigenvalues("FLUTTER", "CLAMA", nmodes=2)
+    clama = _Clama("FLUTTER", "CLAMA", nmodes=2)
     clama.mode[:] = clama.extraction_order[:] = [1, 2]
     clama.eigenvalues[:] = [-1.0 + 60.0j, -3.0 + 250.0j]
     clama.cycles[:] = [9.5, 39.8]
@@ -82,17 +106,18 @@ def write_op2(path, vec):
     return path
 
 
-def add_caero(model, planform, origin, *, split=0.5, sym_xz=1, cref=None, use_aefact=True):
-    """Two CAERO1 panels (root..split, split..tip of the span) on ``planform`` moved by ``origin``; AERO card."""
+def add_caero(model, planform, origin, *, split=0.5, sym_xz=1, cref=None, nspans=(4, 4)):
+    """Two CAERO1 panels (root..split with NSPAN, split..tip with an AEFACT list of LSPAN) on ``planform`` moved
+    by ``origin``; 6 chordwise boxes; AERO card."""
     origin = np.asarray(origin, dtype=float)
     model.add_paero1(1000)
-    model.add_aefact(90, [0.0, 0.25, 0.5, 0.75, 1.0])
+    model.add_aefact(90, np.linspace(0.0, 1.0, nspans[1] + 1).tolist())
     etas = [0.0, split, 1.0]
     for i in range(2):
         x1, y1 = planform.to_xy(0.0, etas[i])
         x4, y4 = planform.to_xy(0.0, etas[i + 1])
         c1, c4 = float(planform.chord(y1)), float(planform.chord(y4))
-        nspan, lspan = (0, 90) if (i == 1 and use_aefact) else (4, 0)
+        nspan, lspan = (0, 90) if i == 1 else (nspans[0], 0)
         model.add_caero1(1001 + 100 * i, 1000, 1, origin + [float(x1), float(y1), 0.0], c1,
                          origin + [float(x4), float(y4), 0.0], c4, nspan=nspan, lspan=lspan, nchord=6)
     model.add_aero(velocity=100.0, cref=cref or planform.root_chord, rho_ref=1.225, sym_xz=sym_xz)

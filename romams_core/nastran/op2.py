@@ -8,8 +8,8 @@ Choices (:class:`NastranOptions`): the subcase, the modes (ids or a count), skip
 frequency, the GRIDs (ids, or those inside the deck's CAERO1 planform), and the deck's units. Nastran solves
 with the mass matrix scaled by PARAM,WTMASS, so its eigenvectors and generalized masses are in the deck's
 consistent units (mass unit = force unit s^2 / length unit); ``units`` names that system and the shapes are
-converted to SI: displacement x length scale, generalized mass x mass scale. The structural mass (kg) is
-WTMASS x the deck's mass sum x the mass scale.
+converted to SI: displacement x length scale, generalized mass x mass scale x length scale^2. The structural
+mass (kg) is WTMASS x the deck's mass sum x the mass scale.
 """
 
 from __future__ import annotations
@@ -136,13 +136,14 @@ def _eigenvector_table(op2: Any, name: str, subcase: int | None) -> Any:
         raise InputError("op2", f"{name} holds no real eigenvectors (a SOL 103 run, or a SOL 145 run with "
                                 "DISP output of its normal modes)")
     keys = sorted(vecs, key=str)
+    shown = [int(k[0]) if isinstance(k, tuple) else int(k) for k in keys]
     if subcase is None:
         if len(keys) > 1:
-            raise InputError("subcase", f"{name} has several eigenvector subcases {keys}; choose one")
+            raise InputError("subcase", f"{name} has several eigenvector subcases {shown}; choose one")
         return vecs[keys[0]]
     match = [k for k in keys if k == subcase or (isinstance(k, tuple) and k[0] == subcase)]
     if not match:
-        raise InputError("subcase", f"{subcase} not in {name} (has {keys})")
+        raise InputError("subcase", f"{subcase} not in {name} (has {shown})")
     return vecs[match[0]]
 
 
@@ -280,13 +281,14 @@ def load_modes_nastran(bdf_path: PathLike, op2_path: PathLike, subcase: int | No
     r = _to_basic(model, data[keep][:, is_grid][:, sel, 3:6], cd)
     length, mass_unit = UNIT_SYSTEMS[opts.units]
     gm = _generalized_masses(op2, mode_ids[keep])
-    gm_si = (np.ones(keep.size) if gm is None else gm) * mass_unit
+    gm_scale = mass_unit * length ** 2  # generalized mass: mass x displacement^2 (or inertia x rotation^2)
+    gm_si = (np.ones(keep.size) if gm is None else gm) * gm_scale
     mass = _structural_mass(model, opts.wtmass)
     return ExternalModes(
         nodes=xyz * length,
         shapes=t[:, :, 2].T * length,
         frequencies_hz=freqs[keep],
-        generalized_masses=None if (gm is None and mass_unit == 1.0) else gm_si,
+        generalized_masses=None if (gm is None and gm_scale == 1.0) else gm_si,
         mass_kg=None if mass is None else mass * mass_unit,
         source=op2_file.name,
         rotations=np.stack([r[:, :, 0].T, r[:, :, 1].T]),
