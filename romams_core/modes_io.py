@@ -53,6 +53,7 @@ class ExternalModes:
     source: str = ""  # where the modes came from (file name, "json", ...)
     rotations: np.ndarray | None = None  # [2, P, k] rotations about x and y (rad, basic frame; Nastran R1, R2)
     grid_ids: np.ndarray | None = None  # [P] FE node ids (Nastran GRID ids), for messages
+    spline: str = "auto"  # how the shapes go onto the standard mesh: one of SPLINES
 
     def __post_init__(self) -> None:
         nodes = _float_array("nodes", self.nodes)
@@ -96,6 +97,8 @@ class ExternalModes:
             if rot.shape != (2, n_pts, k):
                 raise InputError("rotations", f"expected [2, {n_pts} nodes, {k} modes], got {rot.shape}")
             self.rotations = rot
+        if self.spline not in SPLINES:
+            raise InputError("spline", f"must be one of {SPLINES}, got {self.spline!r}")
         if self.grid_ids is not None:
             ids = np.asarray(self.grid_ids).astype(int).ravel()
             if ids.size != n_pts:
@@ -360,6 +363,11 @@ def choose_spline(modes: ExternalModes, spline: str = "auto") -> str:
     if spline == "beam" and modes.rotations is None:
         raise InputError("spline", "the beam spline needs the nodes' rotations (R1, R2: a Nastran OP2)")
     return spline
+
+
+def wing_modal_result(modes: ExternalModes, wing: Any, mesh: StandardMesh) -> ModalResult:
+    """:func:`external_modal_result` with the modes' own spline and the wing's origin (imported planforms)."""
+    return external_modal_result(modes, mesh, spline=modes.spline, origin=getattr(wing, "origin", None))
 
 
 def external_modal_result(modes: ExternalModes, mesh: StandardMesh, smooth: bool = True, *, spline: str = "auto",

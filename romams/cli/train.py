@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from romams.cli.app import app
+from romams.cli.app import WING_HELP, app
 from romams.pipeline import ensure_basis, ensure_roms, resolve_wing, rom_identity
 from romams.services.errors import ServiceError
 from romams.services.training import DEFAULT_SOLVER, SOLVERS, check_options, is_frequency_solver, quality_line
@@ -31,7 +31,7 @@ def _reduce_option(value: str | None) -> int | str | None:
 
 @app.command("train")
 def train_command(
-    wing: str = typer.Option("cropped-delta", "--wing", help="stored wing name / id, or a template name"),
+    wing: str = typer.Option("cropped-delta", "--wing", help=WING_HELP),
     mach: float = typer.Option(0.87, "--mach", min=0.0, max=0.99, help="free-stream Mach number"),
     solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver: dlm (doublet lattice, "
                                "rational-function ROM), uvlm (time domain, ARX ROM) or tsd (transonic small "
