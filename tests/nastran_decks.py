@@ -179,3 +179,29 @@ def beam_modes(n_el=10, semispan=0.5, ei=80.0, gj=60.0, m=1.2, i_t=4e-3, s=0.01,
     phi = np.zeros((3 * n, n_modes))
     phi[free] = vec[:, :n_modes]
     return np.linspace(0.0, semispan, n), np.sqrt(lam[:n_modes]) / (2 * np.pi), phi.reshape(n, 3, n_modes)
+
+
+STICK_X = 0.15  # the beam axis: mid-chord of STICK_PLANFORM
+
+
+def stick_deck(folder, planform, *, n_el=10, sym_xz=1):
+    """A CBAR stick model on the axis x = STICK_X (GRIDs, CBAR/PBAR/MAT1, root SPC, CAERO1s, AERO) and its SOL 103
+    OP2 (T3, R1, R2 from :func:`beam_modes`); returns (bdf, op2, y, phi)."""
+    y, freqs, phi = beam_modes(n_el=n_el, semispan=planform.semispan)
+    model = BDF(debug=None)
+    nids = np.arange(1, y.size + 1)
+    for nid, yy in zip(nids, y, strict=True):
+        model.add_grid(int(nid), [STICK_X, float(yy), 0.0])
+    model.add_mat1(1, 70e9, None, 0.3, rho=2700.0)
+    model.add_pbar(1, 1, A=1e-4, i1=1e-9, i2=1e-9, j=1e-9)
+    for e in range(y.size - 1):
+        model.add_cbar(e + 1, 1, [int(nids[e]), int(nids[e + 1])], [1.0, 0.0, 0.0], None)
+    half = planform.n_span // 2
+    add_caero(model, planform, [0.0, 0.0, 0.0], nspans=(half, planform.n_span - half), sym_xz=sym_xz)
+    bdf = finish_deck(model, folder / "stick.bdf", nids[:1])
+    data = np.zeros((freqs.size, y.size, 6))
+    data[:, :, 2] = phi[:, 0].T  # T3 = w
+    data[:, :, 3] = phi[:, 1].T  # R1 = dw/dy
+    data[:, :, 4] = phi[:, 2].T  # R2 = twist about y
+    op2 = write_op2(folder / "stick.op2", eigenvector_table(nids, data, freqs))
+    return bdf, op2, y, phi

@@ -97,23 +97,8 @@ def test_plate_round_trip(plate, spline):
 def test_stick_model_beam_spline(tmp_path):
     """A CBAR stick model: T3, R1, R2 from the OP2 through the beam spline; coincident nodes equal T3."""
     pf = Planform(root_chord=0.3, tip_chord=0.3, semispan=0.5, sweep_le=0.0, n_chord=6, n_span=10)
-    y, freqs, phi = nd.beam_modes(n_el=10, semispan=0.5)
-    x_axis = 0.15  # mid-chord, a standard-mesh line
-    model = nd.BDF(debug=None)
-    nids = np.arange(1, y.size + 1)
-    for nid, yy in zip(nids, y, strict=True):
-        model.add_grid(int(nid), [x_axis, float(yy), 0.0])
-    model.add_mat1(1, 70e9, None, 0.3, rho=2700.0)
-    model.add_pbar(1, 1, A=1e-4, i1=1e-9, i2=1e-9, j=1e-9)
-    for e in range(y.size - 1):
-        model.add_cbar(e + 1, 1, [int(nids[e]), int(nids[e + 1])], [1.0, 0.0, 0.0], None)
-    nd.add_caero(model, pf, [0.0, 0.0, 0.0], nspans=(5, 5))
-    bdf = nd.finish_deck(model, tmp_path / "stick.bdf", nids[:1])
-    data = np.zeros((freqs.size, y.size, 6))
-    data[:, :, 2] = phi[:, 0].T  # T3 = w
-    data[:, :, 3] = phi[:, 1].T  # R1 = dw/dy
-    data[:, :, 4] = phi[:, 2].T  # R2 = twist about y
-    op2 = nd.write_op2(tmp_path / "stick.op2", nd.eigenvector_table(nids, data, freqs))
+    bdf, op2, y, _ = nd.stick_deck(tmp_path, pf)
+    x_axis = nd.STICK_X  # mid-chord, a standard-mesh line
     wing = wing_from_bdf(bdf)
     modes = load_modes_nastran(bdf, op2)
     mesh = standard_mesh(wing.planform)
