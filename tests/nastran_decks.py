@@ -106,9 +106,9 @@ def write_op2(path, vec):
     return path
 
 
-def add_caero(model, planform, origin, *, split=0.5, sym_xz=1, cref=None, nspans=(4, 4)):
+def add_caero(model, planform, origin, *, split=0.5, sym_xz=1, cref=None, nspans=(4, 4), nchord=6):
     """Two CAERO1 panels (root..split with NSPAN, split..tip with an AEFACT list of LSPAN) on ``planform`` moved
-    by ``origin``; 6 chordwise boxes; AERO card."""
+    by ``origin``; ``nchord`` chordwise boxes; AERO card."""
     origin = np.asarray(origin, dtype=float)
     model.add_paero1(1000)
     model.add_aefact(90, np.linspace(0.0, 1.0, nspans[1] + 1).tolist())
@@ -119,7 +119,7 @@ def add_caero(model, planform, origin, *, split=0.5, sym_xz=1, cref=None, nspans
         c1, c4 = float(planform.chord(y1)), float(planform.chord(y4))
         nspan, lspan = (0, 90) if i == 1 else (nspans[0], 0)
         model.add_caero1(1001 + 100 * i, 1000, 1, origin + [float(x1), float(y1), 0.0], c1,
-                         origin + [float(x4), float(y4), 0.0], c4, nspan=nspan, lspan=lspan, nchord=6)
+                         origin + [float(x4), float(y4), 0.0], c4, nspan=nspan, lspan=lspan, nchord=nchord)
     model.add_aero(velocity=100.0, cref=cref or planform.root_chord, rho_ref=1.225, sym_xz=sym_xz)
 
 
@@ -197,7 +197,8 @@ def stick_deck(folder, planform, *, n_el=10, sym_xz=1):
     for e in range(y.size - 1):
         model.add_cbar(e + 1, 1, [int(nids[e]), int(nids[e + 1])], [1.0, 0.0, 0.0], None)
     half = planform.n_span // 2
-    add_caero(model, planform, [0.0, 0.0, 0.0], nspans=(half, planform.n_span - half), sym_xz=sym_xz)
+    add_caero(model, planform, [0.0, 0.0, 0.0], nspans=(half, planform.n_span - half), sym_xz=sym_xz,
+              nchord=planform.n_chord)
     bdf = finish_deck(model, folder / "stick.bdf", nids[:1])
     data = np.zeros((freqs.size, y.size, 6))
     data[:, :, 2] = phi[:, 0].T  # T3 = w
