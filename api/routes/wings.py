@@ -192,6 +192,9 @@ def start_basis(wing: str, body: BasisRequest, response: Response, svc: Service 
     """Start a basis job (LHS samples x modal analyses -> PCA basis; a wing without design variables: its own
     modes)."""
     wid, w = wing_or_404(svc, wing)
+    if getattr(w, "structure", True) is None:
+        raise invalid("wing", f"wing {w.name!r} is planform-only (no built-in structure): it has no design space "
+                              "to sample; its modes come from outside (POST /modes)")
     s = svc.settings
     if body.samples > s.max_samples:
         raise invalid("samples", f"must be <= {s.max_samples}, got {body.samples}")

@@ -86,7 +86,10 @@ def train_command(
         wing_id, w = resolve_wing(store, wing)
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--wing") from None
-    basis_id, basis = ensure_basis(store, wing_id, w)  # says on stderr when it builds one
+    try:
+        basis_id, basis = ensure_basis(store, wing_id, w)  # says on stderr when it builds one
+    except ValueError as exc:  # a planform-only wing: its basis comes from its modes (romams flutter --modes)
+        raise typer.BadParameter(str(exc), param_hint="--wing") from None
     ident = rom_identity(solver, na, nb, options, wing=w)
     try:
         check_options(solver, ident["options"], basis.n_basis)

@@ -137,6 +137,7 @@ def test_planform_only_json_definition(client):
          "origin": [3.0, 0.0, 0.5]}
     r = client.post("/api/v1/wings", json={"definition": d})
     assert r.status_code == 201, r.text
+    problem(client.post("/api/v1/wings/bare/basis", json={"samples": 4}), 422, "wing", "planform-only")
     problem(client.post("/api/v1/wings", json={"definition": {**d, "name": "free", "symmetry": "none"}}), 422,
             "definition.symmetry", "not supported yet")
     problem(client.post("/api/v1/wings", json={"definition": {**d, "name": "o", "origin": [1, 2]}}), 422,
