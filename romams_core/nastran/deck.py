@@ -22,13 +22,13 @@ from romams_core.errors import InputError
 
 PathLike = str | os.PathLike[str]
 
-_ABS_PATH = re.compile(r"(?:[A-Za-z]:)?(?:[\\/][^\s'\"\\/:,;()]+)+[\\/]?")
+_ABS_PATH = re.compile(r"(?<![\w.])(?:[A-Za-z]:)?(?:[\\/][^\s'\"\\/:,;()]+)+[\\/]?")
 _INCLUDE = re.compile(r"^\s*include\b", re.IGNORECASE)
 
 
 def scrub(text: str) -> str:
     """``text`` with every absolute file path cut to its base name (no server folder in an error message)."""
-    return _ABS_PATH.sub(lambda m: os.path.basename(m.group(0).rstrip("/\\")) or "<path>", str(text))
+    return _ABS_PATH.sub(lambda m: re.split(r"[\\/]", m.group(0).rstrip("/\\"))[-1] or "<path>", str(text))
 
 
 @contextlib.contextmanager
@@ -115,12 +115,10 @@ def read_bdf(bdf_path: PathLike, *, confine: bool = False, xref_coords: bool = T
         check_includes(path.parent)
     BDF, _ = import_pynastran()
     model = BDF(debug=None)
-    cwd = os.getcwd()
-    try:
-        os.chdir(path.parent)  # pyNastran resolves some include names against the working folder
+    try:  # INCLUDE names resolve against the main file's folder (never the process's working folder)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            model.read_bdf(path.name, validate=False, xref=False, punch=_bdf_is_bulk_only(path))
+            model.read_bdf(str(path.resolve()), validate=False, xref=False, punch=_bdf_is_bulk_only(path))
         if xref_coords:
             model.cross_reference(
                 xref_nodes=True, xref_elements=False, xref_properties=False, xref_masses=False,
@@ -131,8 +129,6 @@ def read_bdf(bdf_path: PathLike, *, confine: bool = False, xref_coords: bool = T
         raise
     except Exception as exc:  # pyNastran raises many types on malformed decks
         raise InputError("bdf", f"cannot read {path.name} ({type(exc).__name__}: {scrub(str(exc))[:500]})") from None
-    finally:
-        os.chdir(cwd)
     return model
 
 
