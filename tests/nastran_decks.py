@@ -123,11 +123,11 @@ def add_caero(model, planform, origin, *, split=0.5, sym_xz=1, cref=None, nspans
     model.add_aero(velocity=100.0, cref=cref or planform.root_chord, rho_ref=1.225, sym_xz=sym_xz)
 
 
-def finish_deck(model, path, spc_nodes=()):
-    """A SOL 103 deck: case control (METHOD, SPC, DISP), EIGRL, root SPC; written to ``path``."""
+def finish_deck(model, path, spc_nodes=(), case=()):
+    """A SOL 103 deck: case control (METHOD, SPC, DISP and ``case`` lines), EIGRL, root SPC; written to ``path``."""
     model.sol = 103
     model.case_control_deck = CaseControlDeck(["SUBCASE 1", "  METHOD = 1", "  SPC = 1", "  DISP = ALL",
-                                               "BEGIN BULK"])
+                                               *case, "BEGIN BULK"])
     model.add_eigrl(1, nd=4)
     if len(spc_nodes):
         model.add_spc1(1, "123456", [int(n) for n in spc_nodes])

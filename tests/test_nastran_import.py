@@ -232,20 +232,27 @@ def test_planform_cards(tmp_path):
     for eid, (x0, c) in enumerate(((0.0, 0.3), (0.3, 0.1)), start=1):  # wing box + flap panel, rectangular
         model.add_caero1(eid * 100, 1, 1, [2.0 + x0, 1.0, 0.0], c, [2.0 + x0, 2.0, 0.0], c, nspan=5, nchord=4)
     model.add_aeros(cref=0.35, bref=2.0, sref=0.4, sym_xz=-1)
+    model.add_tabdmp1(5, [0.0, 100.0], [0.03, 0.03], Type="G")  # structural damping g = 0.03: zeta 0.015
+    model.add_tabdmp1(6, [0.0, 50.0, 100.0], [0.02, 0.01, 0.04], Type="CRIT")
     path = tmp_path / "flap.bdf"
-    nd.finish_deck(model, path)
+    nd.finish_deck(model, path, case=["  SDAMP = 6"])
     with pytest.raises(ValueError, match="symmetry: the deck's AERO/AEROS card asks for 'antisymmetric'"):
         wing_from_bdf(path)
     wing = wing_from_bdf(path, symmetry="symmetric", name="flap")
     pf = wing.planform
     assert (pf.root_chord, pf.tip_chord, pf.semispan, pf.n_chord, pf.n_span) == pytest.approx((0.4, 0.4, 1.0, 4, 5))
     assert wing.origin == (2.0, 1.0, 0.0) and wing.reference_chord == pytest.approx(0.35)
+    assert wing.modal_damping == pytest.approx(0.01)  # SDAMP's CRIT table, its smallest ratio
+    assert "TABDMP1 6 (CRIT), varying with frequency" in wing.description
     again = WingDefinition.from_dict(wing.to_dict())
     assert again == wing and again.structure is None
     with pytest.raises(ValueError, match="structure: wing 'flap' is planform-only"):
         wing.structure_for(None)
     with pytest.raises(ValueError, match="symmetry: 'none' is not supported yet"):
         WingDefinition.from_dict({**wing.to_dict(), "symmetry": "none"})
+    del model.tables_sdamping[6]
+    nd.finish_deck(model, path)  # no SDAMP, one table: g / 2
+    assert wing_from_bdf(path, symmetry="symmetric").modal_damping == pytest.approx(0.015)
     crank = nd.BDF(debug=None)
     crank.add_paero1(1)
     crank.add_caero1(1, 1, 1, [0.0, 0.0, 0.0], 1.0, [0.1, 1.0, 0.0], 0.8, nspan=4, nchord=4)

@@ -6,7 +6,8 @@ span). The union must be one straight-edged trapezoid (leading edge and chord li
 ``tol`` x root chord); a cranked planform is refused. The root leading edge need not be at the origin: the
 planform is translated there and the offset recorded (``origin``, in metres in the deck's basic frame).
 Dihedral is projected away (the standard mesh is flat). Box counts: NSPAN/NCHORD, or the AEFACT lists of
-LSPAN/LCHORD (n + 1 fractions -> n boxes; the standard mesh uses equal fractions).
+LSPAN/LCHORD (n + 1 fractions -> n boxes; the standard mesh uses equal fractions). Structural damping: the
+TABDMP1 table (SDAMP) as the wing's modal damping ratio.
 """
 
 from __future__ import annotations
@@ -178,6 +179,35 @@ def planform_from_model(model: Any, units: str = "si", n_chord: int | None = Non
     return DeckPlanform(planform, (origin[0], origin[1], origin[2]), symmetry, cref, len(caeros), notes)
 
 
+def modal_damping(model: Any) -> tuple[float | None, str]:
+    """Viscous modal damping ratio of a deck's TABDMP1 (the SDAMP table of the case control, else the only one)
+    and a note: G -> g / 2, CRIT -> zeta, Q -> 1 / (2 Q); a table varying with frequency gives its smallest
+    ratio (the conservative one for flutter). (None, "") without a table."""
+    tables = getattr(model, "tables_sdamping", {}) or {}
+    tid = None
+    deck = getattr(model, "case_control_deck", None)
+    for sub in (getattr(deck, "subcases", {}) or {}).values():
+        keys = [k for k in getattr(sub, "params", {}) if str(k).upper().startswith("SDAMP")]
+        if keys:
+            try:
+                tid = int(sub.params[keys[0]][0])
+            except (TypeError, ValueError, IndexError):
+                raise InputError("sdamp", f"SDAMP = {sub.params[keys[0]][0]!r} is not a table id") from None
+            break
+    table = tables.get(tid) if tid is not None else (next(iter(tables.values())) if len(tables) == 1 else None)
+    if table is None:
+        return None, ""
+    y = np.asarray(table.y, dtype=float)
+    kind = str(table.Type).upper()
+    zeta = {"G": y / 2.0, "CRIT": y, "Q": 1.0 / (2.0 * np.where(y > 0, y, np.inf))}.get(kind)
+    if zeta is None or zeta.size == 0 or not np.all(np.isfinite(zeta)) or zeta.min() < 0 or zeta.max() >= 1:
+        raise InputError("tabdmp1", f"TABDMP1 {table.tid}: unusable {kind} damping values {y.tolist()[:6]}")
+    note = f"modal damping from TABDMP1 {table.tid} ({kind})"
+    if np.ptp(zeta) > 1e-12:
+        note += f", varying with frequency: its smallest ratio {zeta.min():.4g} taken"
+    return float(zeta.min()), note
+
+
 def wing_from_bdf(bdf_path: PathLike, name: str | None = None, *, units: str = "si", symmetry: str | None = None,
                   n_chord: int | None = None, n_span: int | None = None, confine: bool = False) -> WingDefinition:
     """A planform-only WingDefinition from a deck's CAERO1 / AERO(S) cards (modes then come from its OP2).
@@ -186,7 +216,11 @@ def wing_from_bdf(bdf_path: PathLike, name: str | None = None, *, units: str = "
     from pathlib import Path
 
     path = Path(bdf_path)
-    dp = planform_from_model(read_bdf(path, confine=confine), units, n_chord, n_span)
+    model = read_bdf(path, confine=confine)
+    dp = planform_from_model(model, units, n_chord, n_span)
+    zeta, damping_note = modal_damping(model)
+    if damping_note:
+        dp.notes.append(damping_note)
     sym = symmetry or dp.symmetry
     if sym not in SUPPORTED_SYMMETRIES and symmetry is None:
         raise InputError("symmetry", f"the deck's AERO/AEROS card asks for {dp.symmetry!r} symmetry "
@@ -196,7 +230,7 @@ def wing_from_bdf(bdf_path: PathLike, name: str | None = None, *, units: str = "
     notes = "; ".join(dp.notes)
     return WingDefinition(
         name=name or path.stem, planform=dp.planform, structure=None, symmetry=sym, origin=dp.origin,
-        reference_chord=dp.reference_chord,
+        reference_chord=dp.reference_chord, modal_damping=zeta or 0.0,
         description=f"Imported from {path.name}: {dp.n_panels} CAERO1 panel(s), root leading edge at "
                     f"({', '.join(f'{v:.6g}' for v in dp.origin)}) m" + (f"; {notes}" if notes else ""),
     )
