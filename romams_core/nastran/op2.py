@@ -14,6 +14,7 @@ mass (kg) is WTMASS x the deck's mass sum x the mass scale.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 import warnings
@@ -255,7 +256,7 @@ def load_modes_nastran(bdf_path: PathLike, op2_path: PathLike, subcase: int | No
     with the shapes for the beam spline."""
     opts = options or NastranOptions()
     if subcase is not None:
-        opts = NastranOptions(**{**opts.__dict__, "subcase": subcase})
+        opts = dataclasses.replace(opts, subcase=subcase)
     bdf_file, op2_file = Path(bdf_path), Path(op2_path)
     if not op2_file.is_file():
         raise InputError("op2", f"file {op2_file.name!r} not found")
