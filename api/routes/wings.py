@@ -91,9 +91,17 @@ async def _json_body(request: Request) -> WingCreate:
 
 async def _wing_from_upload(request: Request, svc: Service) -> tuple[Any, str | None]:
     """(WingDefinition, name) of a multipart upload of a Nastran deck (CAERO1 / AERO(S) planform)."""
+    form = await request.form(max_files=MAX_DECK_FILES, max_fields=16)
+    try:
+        return await _wing_from_form(form, svc)
+    finally:
+        await form.close()  # the spooled upload files
+
+
+async def _wing_from_form(form: Any, svc: Service) -> tuple[Any, str | None]:
+    """(WingDefinition, name) of the parsed multipart form of a wing upload."""
     from romams.wing_files import load_wing_file
 
-    form = await request.form(max_files=MAX_DECK_FILES, max_fields=16)
     fields = {k: v for k, v in form.multi_items() if k != "bdf"}
     unknown = sorted(set(fields) - set(UPLOAD_FIELDS))
     if unknown:
