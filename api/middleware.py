@@ -31,6 +31,8 @@ HEADERS = {"X-Frame-Options": "DENY", "X-Content-Type-Options": "nosniff", "Refe
 DOCS_PREFIXES = ("/docs", "/redoc")
 MUTATING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 UPLOAD_PATHS = frozenset({"/api/v1/modes"})
+#: paths whose multipart bodies (a Nastran deck upload) get the upload limit; their JSON bodies keep request_max_bytes
+MULTIPART_UPLOAD_PATHS = frozenset({"/api/v1/wings"})
 
 
 class SecurityHeaders:
@@ -73,9 +75,10 @@ class RequestGuard:
         self.app = app
         self.settings = settings
 
-    def limit(self, path: str) -> int:
+    def limit(self, path: str, content_type: str = "") -> int:
         """Largest body of a request to ``path`` (the modes upload: two files and the multipart framing)."""
-        if path in UPLOAD_PATHS:
+        if path in UPLOAD_PATHS or (path in MULTIPART_UPLOAD_PATHS
+                                    and content_type.lower().startswith("multipart/form-data")):
             return 2 * int(self.settings.upload_max_bytes) + 1024 * 1024
         return int(self.settings.request_max_bytes)
 
@@ -93,7 +96,7 @@ class RequestGuard:
                 await problem_response(problem.status, problem.detail, title=problem.title, field=problem.field,
                                        instance=path, headers=problem.headers)(scope, receive, send)
                 return
-        limit = self.limit(path)
+        limit = self.limit(path, headers.get("content-type", ""))
         declared = headers.get("content-length")
         if declared is not None:
             try:

@@ -26,6 +26,7 @@ DESCRIPTIONS = {
     404: "no such row: `field` names the id",
     409: "conflict with the stored state (a name taken, a job already final, a stored definition unreadable)",
     413: "request body, upload or batch larger than its limit",
+    501: "the server lacks an optional part (pyNastran for Nastran files)",
     422: "invalid input: `field` names the first offending field, `errors` lists every one",
     503: "the database or the broker is unavailable: retry after Retry-After seconds",
 }
@@ -90,6 +91,9 @@ def finish(schema: dict[str, Any]) -> dict[str, Any]:
     problem = ProblemDetails.model_json_schema(ref_template="#/components/schemas/{model}")
     components.update(problem.pop("$defs", {}))
     components["Problem"] = problem
+    from api.schemas import WingCreate  # POST /wings reads its JSON body itself (it also takes a deck upload)
+
+    components.setdefault("WingCreate", WingCreate.model_json_schema(ref_template="#/components/schemas/{model}"))
     for path in schema.get("paths", {}).values():
         for operation in path.values():
             if "401" in operation.get("responses", {}):

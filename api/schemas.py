@@ -37,7 +37,8 @@ class WingCreate(_Strict):
 
     template: Text | None = Field(default=None, description='built-in template: "cropped-delta" or "goland"')
     name: Text | None = Field(default=None, min_length=1, max_length=200)
-    definition: dict[str, Any] | None = Field(default=None, description="WingDefinition.to_dict() JSON")
+    definition: dict[str, Any] | None = Field(default=None, description="WingDefinition.to_dict() JSON (its JSON "
+                                              "Schema: GET /schemas/wing)")
 
     @model_validator(mode="after")
     def _one_source(self) -> WingCreate:

@@ -37,7 +37,13 @@ def _stderr(msg: str) -> None:
 
 
 def resolve_wing(store: Any, name: str) -> tuple[int, WingDefinition]:
-    """(id, wing) of a stored wing by name or id, else the template of that name stored under its name."""
+    """(id, wing) of a wing file (.json / Nastran deck, stored under its name), else of a stored wing by name or
+    id, else the template of that name stored under its name."""
+    from romams.wing_files import is_wing_file, load_wing_file, store_wing
+
+    if is_wing_file(name):
+        wing = load_wing_file(name)
+        return store_wing(store, wing), wing
     found = store.wings.find(name)
     if found is not None:
         return int(found[0]), found[1]
@@ -51,9 +57,13 @@ def basis_params(samples: int, modes: int, mac_threshold: float, max_basis: int,
             "max_basis": int(max_basis), "seed": int(seed)}
 
 
-def own_mode_basis(wing: WingDefinition, modes: int) -> Basis:
-    """Basis of a wing without design variables: its own first ``modes`` mode shapes (orthonormalized)."""
-    shapes = snapshot(wing, None, modes)
+def own_mode_basis(wing: WingDefinition, modes: int, shapes: np.ndarray | None = None) -> Basis:
+    """Basis of a wing without design variables: its own first ``modes`` mode shapes (orthonormalized); of a
+    planform-only wing: the given external ``shapes`` [N, k] on its standard mesh."""
+    if shapes is None:
+        shapes = snapshot(wing, None, modes)
+    else:
+        modes = int(shapes.shape[1])
     return build_basis(shapes, mac_threshold=0.99999, max_basis=modes, n_modes=modes,
                        designs=np.zeros((1, 0)), design_names=[], wing_name=wing.name)
 
@@ -69,17 +79,31 @@ def ensure_basis(
     max_basis: int = 12,
     seed: int = 0,
     log: Log = _stderr,
+    external: np.ndarray | None = None,
 ) -> tuple[int, Basis]:
     """(id, Basis): the stored basis built with these parameters, else build it now (saying so) and store it.
 
+    ``external``: shapes [N, k] on the standard mesh, the basis of a planform-only wing.
+
     A newly built basis becomes the wing's active basis only when the wing has none yet.
     """
-    params = basis_params(samples, modes, mac_threshold, max_basis, seed)
+    params: dict[str, Any] = basis_params(samples, modes, mac_threshold, max_basis, seed)
+    if wing.structure is None:  # planform only: the basis is the external modes given for it
+        if external is None:
+            raise ValueError(f"modes: wing {wing.name!r} is planform-only (no built-in structure); its basis comes "
+                             "from its modes: give them (--modes)")
+        import hashlib
+
+        digest = hashlib.sha256(np.ascontiguousarray(external, dtype=float).tobytes()).hexdigest()[:16]
+        params.update(modes=int(external.shape[1]), external_modes=digest)
     for row in store.bases.of_wing(wing_id):
         if {k: row["params"].get(k) for k in params} == params:
             return int(row["id"]), store.bases.load(int(row["id"]))
     t0 = time.perf_counter()
-    if not wing.design_variables:
+    if wing.structure is None:
+        log(f"wing {wing.name!r} is planform-only: its {params['modes']} external modes are its basis")
+        basis = own_mode_basis(wing, modes, external)
+    elif not wing.design_variables:
         log(f"wing {wing.name!r} has no design variables: its own {modes} modes are its basis")
         basis = own_mode_basis(wing, modes)
     else:
@@ -169,12 +193,13 @@ def ensure_roms(
 def cli_models(store: Any, wing_id: int, wing: WingDefinition, machs: Sequence[float], ident: Mapping[str, Any], *,
                basis_id: int | None = None, samples: int = 25, modes: int = DEFAULT_N_MODES,
                mac_threshold: float = DEFAULT_MAC_THRESHOLD, processes: int | None = None,
-               log: Log = _stderr) -> Models:
+               log: Log = _stderr, external: np.ndarray | None = None) -> Models:
     """Models of a local evaluation: the named or active basis (built and activated when the wing has none)
-    and one ROM per Mach with identity ``ident`` (trained when missing)."""
-    if basis_id is None and store.wings.active_basis(wing_id) is None:
+    and one ROM per Mach with identity ``ident`` (trained when missing). A planform-only wing's basis: the
+    ``external`` shapes [N, k] (its modes on the standard mesh), found again when the same modes come back."""
+    if basis_id is None and (store.wings.active_basis(wing_id) is None or wing.structure is None):
         bid, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
-                                  log=log)
+                                  log=log, external=external)
     else:
         bid = resolve_basis_id(store, wing_id, basis_id)
         basis = store.bases.load(bid)

@@ -14,13 +14,11 @@ Nodes are projected on the wing plane (z dropped) and interpolated onto the stan
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
-import warnings
 import zipfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -53,6 +51,9 @@ class ExternalModes:
     generalized_masses: np.ndarray | None = None  # [k] phi^T M phi, or None if mass-normalized
     mass_kg: float | None = None  # structural mass, kg
     source: str = ""  # where the modes came from (file name, "json", ...)
+    rotations: np.ndarray | None = None  # [2, P, k] rotations about x and y (rad, basic frame; Nastran R1, R2)
+    grid_ids: np.ndarray | None = None  # [P] FE node ids (Nastran GRID ids), for messages
+    spline: str = "auto"  # how the shapes go onto the standard mesh: one of SPLINES
 
     def __post_init__(self) -> None:
         nodes = _float_array("nodes", self.nodes)
@@ -91,6 +92,18 @@ class ExternalModes:
             if not (isinstance(mass, int | float | np.floating | np.integer) and math.isfinite(mass) and mass > 0):
                 raise InputError("mass_kg", f"must be a finite number > 0 or null, got {mass!r}")
             mass = float(mass)
+        if self.rotations is not None:
+            rot = _float_array("rotations", self.rotations)
+            if rot.shape != (2, n_pts, k):
+                raise InputError("rotations", f"expected [2, {n_pts} nodes, {k} modes], got {rot.shape}")
+            self.rotations = rot
+        if self.spline not in SPLINES:
+            raise InputError("spline", f"must be one of {SPLINES}, got {self.spline!r}")
+        if self.grid_ids is not None:
+            ids = np.asarray(self.grid_ids).astype(int).ravel()
+            if ids.size != n_pts:
+                raise InputError("grid_ids", f"expected {n_pts} ids (one per node), got {ids.size}")
+            self.grid_ids = ids
         self.nodes, self.shapes, self.frequencies_hz = nodes, shapes, freqs
         self.generalized_masses, self.mass_kg = gm, mass
 
@@ -104,6 +117,14 @@ class ExternalModes:
         if self.generalized_masses is None:
             return self.shapes.copy()
         return self.shapes / np.sqrt(self.generalized_masses)
+
+    def mass_normalized_rotations(self) -> np.ndarray | None:
+        """Rotations [2, P, k] scaled like :meth:`mass_normalized_shapes` (rad per unit modal coordinate)."""
+        if self.rotations is None:
+            return None
+        if self.generalized_masses is None:
+            return self.rotations.copy()
+        return self.rotations / np.sqrt(self.generalized_masses)
 
 
 def _float_array(name: str, value: Any) -> np.ndarray:
@@ -262,157 +283,23 @@ def load_modes_npz(path: PathLike, max_bytes: int | None = NPZ_MAX_BYTES) -> Ext
     )
 
 
-@contextlib.contextmanager
-def _numpy2_aliases() -> Iterator[None]:
-    """Temporarily provide ``np.in1d`` (removed in numpy 2.4), which pyNastran 1.4.1 binds at import."""
-    added = not hasattr(np, "in1d")
-    if added:
-
-        def in1d(ar1: Any, ar2: Any, assume_unique: bool = False, invert: bool = False) -> np.ndarray:
-            return np.isin(np.ravel(ar1), ar2, assume_unique=assume_unique, invert=invert)
-
-        setattr(np, "in1d", in1d)  # noqa: B010 (name removed from numpy)
-    try:
-        yield
-    finally:
-        if added:
-            delattr(np, "in1d")  # noqa: B043
-
-
 def _import_pynastran() -> tuple[type, type]:
-    """pyNastran's BDF and OP2 classes, or ImportError saying how to install it."""
-    try:
-        with _numpy2_aliases():
-            from pyNastran.bdf.bdf import BDF
-            from pyNastran.op2.op2 import OP2
-    except ImportError as exc:
-        raise ImportError(
-            "Nastran BDF/OP2 input needs pyNastran: pip install --no-deps 'pyNastran==1.4.1' cpylog "
-            f"(or `make install`); import failed: {exc}"
-        ) from exc
-    return BDF, OP2
+    """pyNastran's BDF and OP2 classes (see :mod:`romams_core.nastran.deck`)."""
+    from romams_core.nastran.deck import import_pynastran
+
+    return import_pynastran()
 
 
-def _bdf_is_bulk_only(path: Path) -> bool:
-    """True when a BDF has no BEGIN BULK line (a bulk-data-only 'punch' file)."""
-    with path.open("r", errors="replace") as f:
-        return not any(line.lstrip().upper().startswith("BEGIN") and "BULK" in line.upper() for line in f)
+def load_modes_nastran(bdf_path: PathLike, op2_path: PathLike, subcase: int | None = None,
+                       n_modes: int | None = None, **kwargs: Any) -> ExternalModes:
+    """Modes of a Nastran BDF + OP2 pair: :func:`romams_core.nastran.op2.load_modes_nastran`."""
+    from romams_core.nastran.op2 import load_modes_nastran as load
+
+    return load(bdf_path, op2_path, subcase, n_modes, **kwargs)
 
 
-def _grid_basic(model: Any, nids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Basic-frame positions [n, 3] (m) and output (CD) frame ids [n] of GRIDs ``nids``."""
-    missing = [int(n) for n in nids if int(n) not in model.nodes]
-    if missing:
-        raise InputError("bdf", f"GRIDs {missing[:10]} of the OP2 eigenvectors are not in the BDF")
-    nodes = [model.nodes[int(n)] for n in nids]
-    xyz = np.array([nd.get_position() for nd in nodes], dtype=float)
-    cd = np.array([int(nd.cd) for nd in nodes], dtype=int)
-    return xyz, cd
-
-
-def _translations_to_basic(model: Any, t: np.ndarray, cd: np.ndarray) -> np.ndarray:
-    """Rotate translations [k, n, 3] from each node's rectangular output frame to the basic frame."""
-    out = t.copy()
-    for cid in np.unique(cd[cd != 0]):  # a handful of coordinate systems
-        coord = model.coords.get(int(cid))
-        if coord is None:
-            raise InputError("bdf", f"output coordinate system CD={cid} is not defined")
-        if coord.Type != "R":
-            raise InputError("bdf", f"output coordinate system CD={cid} is {coord.type}; only rectangular is supported")
-        if coord.i is None:
-            coord.setup()
-        rot = np.vstack([coord.i, coord.j, coord.k])  # rows: local unit axes in the basic frame
-        sel = cd == cid
-        out[:, sel, :] = t[:, sel, :] @ rot
-    return out
-
-
-def load_modes_nastran(
-    bdf_path: PathLike,
-    op2_path: PathLike,
-    subcase: int | None = None,
-    n_modes: int | None = None,
-) -> ExternalModes:
-    """Read GRID coordinates (BDF) and SOL 103 real eigenvectors + eigenvalues (OP2) through pyNastran.
-
-    The out-of-plane displacement is the basic-frame T3 component (rectangular output frames are
-    rotated to basic). Frequencies come from the eigenvalues (sqrt(lambda) / 2 pi); generalized
-    masses from the LAMA table when present (else the vectors are taken as mass-normalized).
-    """
-    bdf_file, op2_file = Path(bdf_path), Path(op2_path)
-    for name, p in (("bdf", bdf_file), ("op2", op2_file)):
-        if not p.is_file():
-            raise InputError(name, f"file {p.name!r} not found")
-    BDF, OP2 = _import_pynastran()
-    model = BDF(debug=None)
-    try:
-        model.read_bdf(str(bdf_file), validate=False, xref=False, punch=_bdf_is_bulk_only(bdf_file))
-        model.cross_reference(
-            xref_nodes=True, xref_elements=False, xref_properties=False, xref_masses=False,
-            xref_materials=False, xref_loads=False, xref_constraints=False, xref_aero=False,
-            xref_sets=False, xref_optimization=False,
-        )
-    except ValueError:
-        raise
-    except Exception as exc:  # pyNastran raises many types on malformed decks
-        raise InputError("bdf", f"cannot read {bdf_file.name} ({type(exc).__name__}: {exc})") from None
-    if not model.nodes:
-        raise InputError("bdf", f"{bdf_file.name} defines no GRID")
-    op2 = OP2(debug=None)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)  # np.chararray inside pyNastran 1.4.1
-            op2.read_op2(str(op2_file), build_dataframe=False)
-    except Exception as exc:
-        raise InputError("op2", f"cannot read {op2_file.name} ({type(exc).__name__}: {exc})") from None
-    vecs = {k: v for k, v in op2.eigenvectors.items() if getattr(v, "is_real", True)}
-    if not vecs:
-        raise InputError("op2", f"{op2_file.name} holds no real eigenvectors (a SOL 103 run with DISP output)")
-    keys = sorted(vecs, key=str)
-    if subcase is None:
-        if len(keys) > 1:
-            raise InputError("subcase", f"{op2_file.name} has several eigenvector subcases {keys}; choose one")
-        key = keys[0]
-    else:
-        match = [k for k in keys if k == subcase or (isinstance(k, tuple) and k[0] == subcase)]
-        if not match:
-            raise InputError("subcase", f"{subcase} not in {op2_file.name} (has {keys})")
-        key = match[0]
-    vec = vecs[key]
-    data = np.asarray(vec.data, dtype=float)  # [k, n, 6]
-    grid = np.asarray(vec.node_gridtype)[:, 1] == 1  # GRID points only (no SPOINT/EPOINT)
-    nids = np.asarray(vec.node_gridtype)[grid, 0]
-    eigns = np.asarray(getattr(vec, "eigns", []), dtype=float)
-    modes = np.asarray(getattr(vec, "modes", np.arange(1, data.shape[0] + 1)), dtype=int)
-    if eigns.size != data.shape[0]:
-        raise InputError("op2", f"{eigns.size} eigenvalues for {data.shape[0]} eigenvectors")
-    if np.any(eigns < 0.0):
-        raise InputError("frequencies_hz", f"negative eigenvalues {eigns[eigns < 0].tolist()[:5]} (rigid-body modes?)")
-    xyz, cd = _grid_basic(model, nids)
-    t_basic = _translations_to_basic(model, data[:, grid, :3], cd)
-    gm = None
-    for lama in op2.eigenvalues.values():  # LAMA: generalized masses of the same modes
-        lam_modes = np.asarray(lama.mode, dtype=int)
-        if np.all(np.isin(modes, lam_modes)):
-            order = {int(m): i for i, m in enumerate(lam_modes)}
-            gm = np.asarray(lama.generalized_mass, dtype=float)[[order[int(m)] for m in modes]]
-            break
-    k = data.shape[0] if n_modes is None else int(n_modes)
-    if not 1 <= k <= data.shape[0]:
-        raise InputError("n_modes", f"must be in [1, {data.shape[0]}], got {n_modes!r}")
-    return ExternalModes(
-        nodes=xyz,
-        shapes=t_basic[:k, :, 2].T,
-        frequencies_hz=np.sqrt(eigns[:k]) / (2.0 * np.pi),
-        generalized_masses=None if gm is None else gm[:k],
-        mass_kg=None,
-        source=op2_file.name,
-    )
-
-
-def check_coverage(points_xy: np.ndarray, mesh: StandardMesh) -> None:
-    """Raise ValueError unless FE points [P, 2] (m) lie on and cover the planform of ``mesh``."""
-    pts = np.asarray(points_xy, dtype=float)
+def _check_on_wing(pts: np.ndarray, mesh: StandardMesh) -> np.ndarray:
+    """(xi, eta) [P, 2] of FE points [P, 2] (m); InputError unless most of them lie on the planform."""
     xi, eta = mesh.planform.to_xi_eta(pts[:, 0], pts[:, 1])
     fe = np.column_stack([xi, eta])
     on_wing = np.all((fe >= -_MARGIN) & (fe <= 1.0 + _MARGIN), axis=1)
@@ -421,17 +308,27 @@ def check_coverage(points_xy: np.ndarray, mesh: StandardMesh) -> None:
         raise InputError(
             "nodes", f"only {on_wing.mean():.0%} of the FE nodes lie on the planform (nodes span "
             f"x {lo[0]:.4g}..{hi[0]:.4g} m, y {lo[1]:.4g}..{hi[1]:.4g} m; wrong units or axes? "
-            "x aft, y span from the root, metres)"
+            "x aft, y span from the root, metres; a Nastran deck's wing: import it with its CAERO1 planform)"
         )
+    return fe
+
+
+def check_coverage(points_xy: np.ndarray, mesh: StandardMesh) -> None:
+    """Raise ValueError unless FE points [P, 2] (m) lie on and cover the planform of ``mesh``."""
+    pts = np.asarray(points_xy, dtype=float)
+    fe = _check_on_wing(pts, mesh)
     if np.unique(np.round(pts / max(np.ptp(pts), 1e-300), 12), axis=0).shape[0] < pts.shape[0]:
-        raise InputError("nodes", "two or more nodes share the same in-plane position")
+        raise InputError("nodes", "two or more nodes share the same in-plane position (an RBE2 master on a "
+                                  "structural node, or upper and lower skins? leave GRIDs out with the GRID "
+                                  "selection: ids, or 'planform')")
     m_xi, m_eta = mesh.planform.to_xi_eta(mesh.x, mesh.y)
     target = np.column_stack([m_xi, m_eta])
     gap, _ = cKDTree(fe).query(target)
     try:
         hull = Delaunay(fe)
     except QhullError:
-        raise InputError("nodes", "the FE nodes are collinear and cannot cover the planform") from None
+        raise InputError("nodes", "the FE nodes are collinear and cannot cover the planform (a stick model "
+                                  "needs rotations R1/R2 for the beam spline)") from None
     shrunk = 0.5 + (target - 0.5) * 0.96  # tolerate round-off and edge nodes slightly inside the edges
     inside = float(np.mean(hull.find_simplex(shrunk) >= 0))
     if gap.max() > _MAX_GAP or inside < _MIN_INSIDE:
@@ -441,19 +338,69 @@ def check_coverage(points_xy: np.ndarray, mesh: StandardMesh) -> None:
         )
 
 
-def external_modal_result(modes: ExternalModes, mesh: StandardMesh, smooth: bool = True) -> ModalResult:
-    """ModalResult (mass-normalized shapes on the standard mesh, sorted by frequency) of external modes."""
+def check_beam_coverage(points_xy: np.ndarray, mesh: StandardMesh) -> None:
+    """InputError unless a stick model's nodes [P, 2] (m) lie on the planform and run from root to tip."""
+    fe = _check_on_wing(np.asarray(points_xy, dtype=float), mesh)
+    if fe[:, 1].min() > _MAX_GAP or fe[:, 1].max() < 1.0 - _MAX_GAP:
+        raise InputError("nodes", f"the beam nodes span {fe[:, 1].min():.2f}..{fe[:, 1].max():.2f} of the semispan; "
+                                  f"they must run from the root to the tip (gaps <= {_MAX_GAP})")
+
+
+#: the mappings from FE nodes to the standard mesh (``auto``: beam for a stick model with rotations, else
+#: clough-tocher, the historical default)
+SPLINES = ("auto", "clough-tocher", "linear", "surface", "beam")
+
+
+def choose_spline(modes: ExternalModes, spline: str = "auto") -> str:
+    """The spline used for ``modes``: ``spline`` checked, or the automatic choice."""
+    from romams_core.structure.splines import is_stick
+
+    if spline not in SPLINES:
+        raise InputError("spline", f"must be one of {SPLINES}, got {spline!r}")
+    stick = is_stick(modes.nodes[:, :2])
+    if spline == "auto":
+        return "beam" if stick and modes.rotations is not None else "clough-tocher"
+    if spline == "beam" and modes.rotations is None:
+        raise InputError("spline", "the beam spline needs the nodes' rotations (R1, R2: a Nastran OP2)")
+    return spline
+
+
+def wing_modal_result(modes: ExternalModes, wing: Any, mesh: StandardMesh) -> ModalResult:
+    """:func:`external_modal_result` with the modes' own spline and the wing's origin (imported planforms)."""
+    return external_modal_result(modes, mesh, spline=modes.spline, origin=getattr(wing, "origin", None))
+
+
+def external_modal_result(modes: ExternalModes, mesh: StandardMesh, smooth: bool = True, *, spline: str = "auto",
+                          origin: Any = None) -> ModalResult:
+    """ModalResult (mass-normalized shapes on the standard mesh, sorted by frequency) of external modes.
+
+    ``origin`` (m): where the wing's root leading edge lies in the frame of the nodes (a Nastran deck's CAERO1
+    corner); the nodes are moved by -origin. ``spline``: one of :data:`SPLINES`."""
+    from romams_core.structure.splines import beam_spline, surface_spline
+
     planform = mesh.planform
-    z = modes.nodes[:, 2]
+    nodes = modes.nodes - (np.zeros(3) if origin is None else np.asarray(origin, dtype=float).reshape(3))
+    z = nodes[:, 2]
     if np.ptp(z) > _MAX_Z_SPREAD * max(planform.root_chord, planform.semispan):
         raise InputError(
             "nodes", f"z spans {np.ptp(z):.4g} m; the nodes must lie near the wing plane z = 0 (x aft, y span, z up)"
         )
-    xy = modes.nodes[:, :2]
-    check_coverage(xy, mesh)
+    xy = nodes[:, :2]
+    method = choose_spline(modes, spline)
     order = np.argsort(modes.frequencies_hz, kind="stable")
     fe_shapes = modes.mass_normalized_shapes()[:, order]
-    shapes = map_to_mesh(xy, fe_shapes, mesh, smooth=smooth)
+    target = np.column_stack([mesh.x, mesh.y])
+    if method == "beam":
+        check_beam_coverage(xy, mesh)
+        rot = modes.mass_normalized_rotations()
+        assert rot is not None
+        shapes = beam_spline(xy, fe_shapes, rot[:, :, order], target)
+    else:
+        check_coverage(xy, mesh)
+        if method == "surface":
+            shapes = surface_spline(xy, fe_shapes, target)
+        else:
+            shapes = map_to_mesh(xy, fe_shapes, mesh, smooth=smooth and method == "clough-tocher")
     sign = _sign_convention(shapes)
     freqs = modes.frequencies_hz[order]
     return ModalResult(

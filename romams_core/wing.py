@@ -25,6 +25,10 @@ from romams_core.mesh import Planform
 from romams_core.validation import check_int, check_number
 
 THICKNESS_FORMS = ("constant", "naca4", "naca65a004")
+#: aerodynamic symmetry about the root (x-z) plane: a half wing mirrored symmetrically, antisymmetrically, or
+#: a free wing (no mirror); the solvers implement "symmetric" only so far
+SYMMETRIES = ("symmetric", "antisymmetric", "none")
+SUPPORTED_SYMMETRIES = ("symmetric",)
 BEAM_PLACEMENTS = ("mid-plane", "eccentric")
 
 
@@ -237,15 +241,25 @@ def _set_path(obj: Any, path: str, value: float) -> Any:
 
 @dataclass(frozen=True)
 class WingDefinition:
-    """A stored wing: name, planform, parametric structure, design variables, optional baseline."""
+    """A stored wing: name, planform, parametric structure, design variables, optional baseline.
+
+    ``structure=None``: a planform-only wing, whose modes always come from outside (uploaded / Nastran).
+    ``origin`` (m): where the planform's root leading edge lies in the frame of the model it was imported from
+    (external nodes in that frame are moved by -origin); ``symmetry``: one of :data:`SYMMETRIES`;
+    ``reference_chord`` (m): the source's reference chord (Nastran AERO REFC), recorded only (the solvers'
+    reference chord is the root chord).
+    """
 
     name: str
     planform: Planform
-    structure: PlateStructure | BeamStructure
+    structure: PlateStructure | BeamStructure | None
     design_variables: tuple[DesignVariable, ...] = ()
     baseline: PlateStructure | BeamStructure | None = None
     description: str = ""
     modal_damping: float = 0.0  # viscous modal damping ratio zeta applied to every mode in flutter analyses
+    symmetry: str = "symmetric"
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    reference_chord: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -255,8 +269,14 @@ class WingDefinition:
             raise InputError("modal_damping", f"must be a damping ratio in [0, 1), got {self.modal_damping!r}")
         if not isinstance(self.planform, Planform):
             raise InputError("planform", "must be a Planform")
+        self._check_frame()
+        if self.structure is None:
+            if self.design_variables or self.baseline is not None:
+                raise InputError("structure", "a planform-only wing (structure null) has no design variables or "
+                                              "baseline")
+            return
         if not isinstance(self.structure, PlateStructure | BeamStructure):
-            raise InputError("structure", "must be a PlateStructure or BeamStructure")
+            raise InputError("structure", "must be a PlateStructure, a BeamStructure or null (planform only)")
         if self.baseline is not None and type(self.baseline) is not type(self.structure):
             raise InputError("baseline", "must be the same kind of structure as structure")
         object.__setattr__(self, "design_variables", tuple(self.design_variables))
@@ -282,9 +302,29 @@ class WingDefinition:
             if s.mass_per_length * e * e >= s.inertia_ea_per_length:
                 raise InputError("structure.inertia_ea_per_length", "must exceed mass_per_length * (CG offset)^2")
 
+    def _check_frame(self) -> None:
+        """Validate symmetry, origin and reference chord."""
+        if self.symmetry not in SYMMETRIES:
+            raise InputError("symmetry", f"must be one of {SYMMETRIES}, got {self.symmetry!r}")
+        if self.symmetry not in SUPPORTED_SYMMETRIES:
+            raise InputError("symmetry", f"{self.symmetry!r} is not supported yet: the aerodynamic solvers model a "
+                                         "half wing mirrored symmetrically at the root only (free-wing and "
+                                         "antisymmetric solutions are a later step)")
+        try:
+            origin = tuple(float(v) for v in self.origin)
+        except (TypeError, ValueError):
+            raise InputError("origin", f"must be three numbers (m), got {self.origin!r}") from None
+        if len(origin) != 3 or not all(math.isfinite(v) for v in origin):
+            raise InputError("origin", f"must be three finite numbers (m), got {self.origin!r}")
+        object.__setattr__(self, "origin", origin)
+        if self.reference_chord is not None:
+            check_number("reference_chord", self.reference_chord, 0.0)
+
     @property
     def has_baseline(self) -> bool:
         """True when ``design=None`` has a meaning (an explicit baseline, or no design variables)."""
+        if self.structure is None:
+            return False
         return self.baseline is not None or not self.design_variables
 
     @property
@@ -334,6 +374,9 @@ class WingDefinition:
         self, design: Mapping[str, float] | Sequence[float] | np.ndarray | None = None
     ) -> PlateStructure | BeamStructure:
         """The concrete structure of a design (None: the baseline)."""
+        if self.structure is None:
+            raise InputError("structure", f"wing {self.name!r} is planform-only (no built-in structure): give "
+                                          "its modes from outside (a Nastran OP2, JSON or NPZ)")
         if design is None:
             if self.baseline is not None:
                 return self.baseline
@@ -352,10 +395,13 @@ class WingDefinition:
             "name": self.name,
             "description": self.description,
             "planform": dataclasses.asdict(self.planform),
-            "structure": _structure_to_dict(self.structure),
+            "structure": None if self.structure is None else _structure_to_dict(self.structure),
             "baseline": None if self.baseline is None else _structure_to_dict(self.baseline),
             "design_variables": [dataclasses.asdict(v) for v in self.design_variables],
             "modal_damping": float(self.modal_damping),
+            "symmetry": self.symmetry,
+            "origin": list(self.origin),
+            "reference_chord": self.reference_chord,
         }
 
     @classmethod
@@ -363,7 +409,7 @@ class WingDefinition:
         """Inverse of :meth:`to_dict`; raises ValueError naming a missing or bad field."""
         if not isinstance(d, Mapping):
             raise InputError("wing", "must be a JSON object")
-        for key in ("name", "planform", "structure"):
+        for key in ("name", "planform"):
             if key not in d:
                 raise InputError(key, "missing")
         try:
@@ -378,11 +424,14 @@ class WingDefinition:
         return cls(
             name=d["name"],
             planform=planform,
-            structure=_structure_from_dict(d["structure"], "structure"),
+            structure=None if d.get("structure") is None else _structure_from_dict(d["structure"], "structure"),
             design_variables=dvs,
             baseline=None if base is None else _structure_from_dict(base, "baseline"),
             description=str(d.get("description", "")),
             modal_damping=d.get("modal_damping", 0.0),
+            symmetry=d.get("symmetry", "symmetric"),
+            origin=d.get("origin") or (0.0, 0.0, 0.0),
+            reference_chord=d.get("reference_chord"),
         )
 
 

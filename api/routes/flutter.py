@@ -61,7 +61,7 @@ def _design_vector(wing: Any, design: Any, field: str) -> list[float] | None:
 def _inline_modes(svc: Service, wing: Any, modes: dict[str, Any]) -> int:
     """Validate external modes against the wing's standard mesh and store them; returns the modes id."""
     from romams_core.mesh import standard_mesh
-    from romams_core.modes_io import external_modal_result, modes_from_dict
+    from romams_core.modes_io import modes_from_dict, wing_modal_result
 
     try:
         m = modes_from_dict(modes, "json")
@@ -71,7 +71,7 @@ def _inline_modes(svc: Service, wing: Any, modes: dict[str, Any]) -> int:
                 raise ValueError("generalized_masses: must be positive, one per mode")
         if np.any(m.frequencies_hz <= 0):
             raise ValueError("frequencies_hz: must be > 0")
-        external_modal_result(m, standard_mesh(wing.planform))
+        wing_modal_result(m, wing, standard_mesh(wing.planform))
     except ValueError as exc:
         raise from_value_error(exc, "modes") from exc
     summary = {"n_nodes": int(m.nodes.shape[0]), "n_modes": int(m.shapes.shape[1])}

@@ -3,16 +3,23 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+import tempfile
+from pathlib import Path
 from typing import Any, Literal
 
 from fastapi import APIRouter, Depends, Query, Request, Response
+from fastapi.concurrency import run_in_threadpool
+from fastapi.exceptions import RequestValidationError
+from pydantic import ValidationError
 
 from api.deps import WING_NAME_MAX, Service, no_nul, require_key, service, wing_or_404
 from api.openapi import FOUND, IMAGE, READ, WING, WRITE, problems
 from api.plot_cache import NOT_MODIFIED, plot_response
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import ActiveBasis, BasisRequest, Created, JobRef, RomRequest, WingCreate
+from api.uploads import MAX_DECK_FILES, save_deck
 from romams.jobs import submit
 from romams.persistence import ID_MAX, ID_MIN, content_hash, rom_key
 from romams.services.errors import ServiceError
@@ -35,10 +42,19 @@ def wing_view(wid: int, wing: Any, svc: Service) -> dict[str, Any]:
             "definition": info.get("definition", {}).get("data")}
 
 
-@router.post("/wings", status_code=201, response_model=Created, dependencies=[Depends(require_key)],
-             responses={**WRITE, **problems(409)})
-def create_wing(body: WingCreate, svc: Service = Depends(service)) -> dict[str, int]:
-    """Create a wing from a template ({"template": "cropped-delta", "name": ...}) or a full definition."""
+def _create(svc: Service, wing: Any, name: str | None) -> dict[str, int]:
+    """Store a wing under ``name`` (default its own); 409 when the name is taken."""
+    if len(wing.name) > WING_NAME_MAX:
+        raise invalid("definition.name", f"at most {WING_NAME_MAX} characters, got {len(wing.name)}")
+    try:
+        wid = svc.store.wings.create(wing, name)
+    except ValueError as exc:
+        raise Problem(409, str(exc), "name") from exc
+    return {"id": wid}
+
+
+def _wing_from_body(body: WingCreate) -> Any:
+    """WingDefinition of a JSON request: a template (renamed) or a full definition."""
     from romams_core import wing as wing_mod
 
     no_nul(body.definition, "definition")
@@ -56,13 +72,107 @@ def create_wing(body: WingCreate, svc: Service = Depends(service)) -> dict[str, 
             wing = dataclasses.replace(wing, name=body.name)
         except ValueError as exc:
             raise from_value_error(exc) from exc
-    if len(wing.name) > WING_NAME_MAX:
-        raise invalid("definition.name", f"at most {WING_NAME_MAX} characters, got {len(wing.name)}")
+    return wing
+
+
+async def _json_body(request: Request) -> WingCreate:
+    """The JSON body as a WingCreate; 422 problems as FastAPI's own body validation words them."""
+    raw = await request.body()
     try:
-        wid = svc.store.wings.create(wing, body.name)
-    except ValueError as exc:
-        raise Problem(409, str(exc), "name") from exc
-    return {"id": wid}
+        data = json.loads(raw)
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise RequestValidationError([{"type": "json_invalid", "loc": ("body", getattr(exc, "pos", 0)),
+                                       "msg": "JSON decode error", "input": {}}]) from None
+    try:
+        return WingCreate.model_validate(data)
+    except ValidationError as exc:
+        raise RequestValidationError([{**e, "loc": ("body", *e["loc"])} for e in exc.errors(include_url=False)]
+                                     ) from None
+
+
+async def _wing_from_upload(request: Request, svc: Service) -> tuple[Any, str | None]:
+    """(WingDefinition, name) of a multipart upload of a Nastran deck (CAERO1 / AERO(S) planform)."""
+    form = await request.form(max_files=MAX_DECK_FILES, max_fields=16)
+    try:
+        return await _wing_from_form(form, svc)
+    finally:
+        await form.close()  # the spooled upload files
+
+
+async def _wing_from_form(form: Any, svc: Service) -> tuple[Any, str | None]:
+    """(WingDefinition, name) of the parsed multipart form of a wing upload."""
+    from romams.wing_files import load_wing_file
+
+    fields = {k: v for k, v in form.multi_items() if k != "bdf"}
+    unknown = sorted(set(fields) - set(UPLOAD_FIELDS))
+    if unknown:
+        raise invalid(unknown[0], f"not a field of a wing upload; allowed: bdf (files), {', '.join(UPLOAD_FIELDS)}")
+    text = {k: v for k, v in fields.items() if isinstance(v, str)}
+    if len(text) != len(fields):
+        raise invalid(next(k for k in fields if k not in text), "must be a text field, not a file")
+    no_nul(text, "form")
+    ints = {}
+    for key in ("n_chord", "n_span"):
+        if text.get(key):
+            if not text[key].isdigit() or not 1 <= int(text[key]) <= 200:
+                raise invalid(key, f"must be an integer in [1, 200], got {text[key][:20]!r}")
+            ints[key] = int(text[key])
+    name = text.get("name") or None
+    if name is not None and not 1 <= len(name) <= WING_NAME_MAX:
+        raise invalid("name", f"1..{WING_NAME_MAX} characters")
+    with tempfile.TemporaryDirectory(prefix="romams-upload-") as tmp:
+        deck = await save_deck(form.getlist("bdf"), Path(tmp), svc.settings.upload_max_bytes,
+                               svc.settings.upload_inflated_max_bytes)
+        try:
+            wing = await run_in_threadpool(load_wing_file, deck, name=name, units=text.get("units") or "si",
+                                           symmetry=text.get("symmetry") or None, confine=True, **ints)
+        except ImportError as exc:
+            raise Problem(501, "bdf: Nastran support (pyNastran) is not installed on this server", "bdf") from exc
+    return wing, name
+
+
+#: the text fields of a multipart wing upload (besides the deck files ``bdf``)
+UPLOAD_FIELDS = ("name", "units", "symmetry", "n_chord", "n_span")
+WING_BODY = {"requestBody": {"required": True, "content": {
+    "application/json": {"schema": {"$ref": "#/components/schemas/WingCreate"}},
+    "multipart/form-data": {"schema": {
+        "type": "object", "required": ["bdf"], "additionalProperties": False,
+        "description": "a Nastran deck (one file, several files: the main deck and its INCLUDE files, or a zip) "
+                       "whose CAERO1 panels and AERO/AEROS card make a planform-only wing",
+        "properties": {
+            "bdf": {"type": "array", "items": {"type": "string", "format": "binary"}, "minItems": 1},
+            "name": {"type": "string", "minLength": 1, "maxLength": WING_NAME_MAX},
+            "units": {"type": "string", "enum": ["si", "mm-t-s", "in-lbf-s", "ft-lbf-s"]},
+            "symmetry": {"type": "string", "enum": ["symmetric"],
+                         "description": "override the deck's AERO/AEROS symmetry (only symmetric is solved yet)"},
+            "n_chord": {"type": "integer", "minimum": 1, "maximum": 200},
+            "n_span": {"type": "integer", "minimum": 1, "maximum": 200}}}}}}}
+
+
+@router.post("/wings", status_code=201, response_model=Created, dependencies=[Depends(require_key)],
+             responses={**WRITE, **problems(409, 501)}, openapi_extra=WING_BODY)
+async def create_wing(request: Request, svc: Service = Depends(service)) -> dict[str, int]:
+    """Create a wing: JSON ({"template": "cropped-delta", "name": ...} or {"definition": ...}), or a multipart
+    upload of a Nastran deck (``bdf``: files or a zip; ``name``, ``units``, ``symmetry``, ``n_chord``, ``n_span``)
+    whose CAERO1 / AERO(S) cards give a planform-only wing (its modes then come from POST /modes)."""
+    if request.headers.get("content-type", "").lower().startswith("multipart/form-data"):
+        try:
+            wing, name = await _wing_from_upload(request, svc)
+        except ValueError as exc:
+            field = getattr(exc, "field", "")
+            raise from_value_error(exc, "" if field in UPLOAD_FIELDS else "bdf") from exc
+    else:
+        body = await _json_body(request)
+        wing, name = _wing_from_body(body), body.name
+    return await run_in_threadpool(_create, svc, wing, name)
+
+
+@router.get("/schemas/wing")
+def wing_schema() -> dict[str, Any]:
+    """JSON Schema of a wing definition (the ``definition`` of POST /wings; ``romams wing schema``)."""
+    from romams.wing_files import wing_schema as schema
+
+    return schema()
 
 
 @router.get("/wings")
@@ -91,6 +201,9 @@ def start_basis(wing: str, body: BasisRequest, response: Response, svc: Service 
     """Start a basis job (LHS samples x modal analyses -> PCA basis; a wing without design variables: its own
     modes)."""
     wid, w = wing_or_404(svc, wing)
+    if getattr(w, "structure", True) is None:
+        raise invalid("wing", f"wing {w.name!r} is planform-only (no built-in structure): it has no design space "
+                              "to sample; its modes come from outside (POST /modes)")
     s = svc.settings
     if body.samples > s.max_samples:
         raise invalid("samples", f"must be <= {s.max_samples}, got {body.samples}")

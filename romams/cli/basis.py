@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import typer
 
-from romams.cli.app import app
+from romams.cli.app import WING_HELP, app
 from romams.services.evaluation import DEFAULT_MAC_THRESHOLD
 from romams.services.models import activate_first_basis
 from romams_core.basis import Basis, build_basis_for_wing, mac_by_basis_size, project, random_designs, snapshot
@@ -18,8 +18,15 @@ from romams_core.mesh import standard_mesh
 
 
 def _resolve_wing(name: str, use_store: bool) -> Any:
-    """A wing by stored name/id, else by template name."""
+    """A wing file (.json / Nastran deck), else a stored wing by name/id, else a template by name."""
+    from romams.wing_files import is_wing_file, load_wing_file
     from romams_core.wing import template
+
+    if is_wing_file(name):
+        try:
+            return load_wing_file(name)
+        except (ValueError, ImportError) as exc:
+            raise typer.BadParameter(str(exc), param_hint="--wing") from None
 
     if use_store:
         from romams.persistence import open_store
@@ -56,7 +63,7 @@ def basis_arrays(basis: Basis) -> dict[str, np.ndarray]:
 
 @app.command("basis")
 def basis_command(
-    wing: str = typer.Option("cropped-delta", "--wing", help="wing template name, or a stored wing's name / id"),
+    wing: str = typer.Option("cropped-delta", "--wing", help=WING_HELP),
     samples: int = typer.Option(25, "--samples", min=1, help="Latin hypercube samples of the design space"),
     modes: int = typer.Option(4, "--modes", min=1, max=50, help="modes per sample structure"),
     mac: float = typer.Option(DEFAULT_MAC_THRESHOLD, "--mac", min=0.0, max=1.0,

@@ -13,26 +13,44 @@ from typing import Any
 
 import typer
 
-from romams.cli.app import app
+from romams.cli.app import WING_HELP, app
 from romams.cli.modal import parse_design
 from romams.services.errors import ServiceError
 from romams.services.evaluation import DEFAULT_MAC_THRESHOLD, DEFAULT_N_MODES
 from romams.services.flight import FlightCondition
 from romams.services.training import DEFAULT_SOLVER, SOLVERS, available
 
+#: the CLI option of each field of a Nastran read
+NASTRAN_HINTS = {"subcase": "--subcase", "modes": "--op2-modes", "n_modes": "--op2-modes", "grids": "--grids",
+                 "skip_below_hz": "--skip-below-hz", "units": "--units", "wtmass": "--wtmass", "bdf": "--bdf",
+                 "op2": "--modes", "frequencies_hz": "--skip-below-hz", "spline": "--spline"}
 
-def external_modes(modes_file: Path, bdf: Path | None) -> Any:
-    """ExternalModes read from a JSON, NPZ or Nastran OP2 (+ BDF) file."""
+
+def external_modes(modes_file: Path, bdf: Path | None, nastran: dict[str, Any] | None = None,
+                   spline: str = "auto") -> Any:
+    """ExternalModes read from a JSON, NPZ or Nastran OP2 (+ BDF) file; ``nastran``: NastranOptions fields."""
+    import dataclasses
+
+    from romams.cli.wing import bad_input
     from romams_core import modes_io
 
     suffix = modes_file.suffix.lower()
-    if bdf is not None or suffix == ".op2":
-        if bdf is None:
-            raise typer.BadParameter("an OP2 file needs its BDF (--bdf FILE)", param_hint="--modes")
-        return modes_io.load_modes_nastran(bdf, modes_file)
-    if suffix == ".npz":
-        return modes_io.load_modes_npz(modes_file)
-    return modes_io.load_modes_json(modes_file)
+    try:
+        if bdf is not None or suffix == ".op2":
+            if bdf is None:
+                raise typer.BadParameter("an OP2 file needs its BDF (--bdf FILE)", param_hint="--modes")
+            from romams_core.nastran import NastranOptions
+
+            modes = modes_io.load_modes_nastran(bdf, modes_file, options=NastranOptions(**(nastran or {})))
+        elif suffix == ".npz":
+            modes = modes_io.load_modes_npz(modes_file)
+        else:
+            modes = modes_io.load_modes_json(modes_file)
+        return dataclasses.replace(modes, spline=spline)
+    except ImportError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--bdf") from None
+    except ValueError as exc:
+        raise bad_input(exc, NASTRAN_HINTS, "--modes") from None
 
 
 def flight_condition(density: float | None, altitude: float | None, matched: bool, sweep: str | None,
@@ -56,7 +74,7 @@ def flight_condition(density: float | None, altitude: float | None, matched: boo
 
 @app.command("flutter")
 def flutter_command(
-    wing: str = typer.Option("cropped-delta", "--wing", help="wing template name, or a stored wing's name / id"),
+    wing: str = typer.Option("cropped-delta", "--wing", help=WING_HELP),
     baseline: bool = typer.Option(False, "--baseline", help="evaluate the wing's baseline structure"),
     design: str | None = typer.Option(None, "--design", help="design variables NAME=VALUE,... (all of them)"),
     mach: list[float] = typer.Option([0.87], "--mach", help="Mach number (repeat for several; 0 = incompressible)"),
@@ -70,6 +88,18 @@ def flutter_command(
     method: str = typer.Option("rom-ams", "--method", help="rom-ams (basis ROM) or rom-pms (train on own modes)"),
     modes_file: Path | None = typer.Option(None, "--modes", help="external modes: JSON, NPZ, or Nastran OP2"),
     bdf: Path | None = typer.Option(None, "--bdf", help="Nastran BDF of the OP2 given with --modes"),
+    subcase: int | None = typer.Option(None, "--subcase", help="OP2 eigenvector subcase (when it has several)"),
+    op2_modes: str | None = typer.Option(None, "--op2-modes", help="OP2 modes: a count N (the first N) or mode "
+                                         "ids 1,2,4 / 3-8"),
+    skip_below_hz: float | None = typer.Option(None, "--skip-below-hz", help="leave out OP2 modes below this "
+                                               "frequency (rigid-body modes), Hz"),
+    grids: str | None = typer.Option(None, "--grids", help="OP2 GRIDs to use: ids 101-140,150, or 'planform' "
+                                     "(inside the deck's CAERO1 panels)"),
+    units: str = typer.Option("si", "--units", help="the deck's units: si, mm-t-s, in-lbf-s, ft-lbf-s"),
+    wtmass: float | None = typer.Option(None, "--wtmass", help="override PARAM,WTMASS (structural mass only)"),
+    spline: str = typer.Option("auto", "--spline", help="FE nodes -> standard mesh: auto (beam spline for a "
+                               "stick model with rotations, else clough-tocher), surface, clough-tocher, linear, "
+                               "beam"),
     n_modes: int = typer.Option(DEFAULT_N_MODES, "--n-modes", min=1, max=30,
                                 help="modes per structure if the basis must be built"),
     samples: int = typer.Option(25, "--samples", min=1, help="LHS samples if the basis must be built"),
@@ -104,7 +134,20 @@ def flutter_command(
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--wing") from None
     values = parse_design(design) if design is not None else None
-    modes = external_modes(modes_file, bdf) if modes_file is not None else None
+    nastran = {"subcase": subcase, "modes": op2_modes, "skip_below_hz": skip_below_hz, "grids": grids,
+               "units": units, "wtmass": wtmass}
+    modes = external_modes(modes_file, bdf, nastran, spline) if modes_file is not None else None
+    external = None
+    if modes is not None and w.structure is None:  # a planform-only wing: its basis is these modes
+        from romams_core.mesh import standard_mesh
+        from romams_core.modes_io import wing_modal_result
+
+        try:
+            external = wing_modal_result(modes, w, standard_mesh(w.planform)).shapes
+        except ValueError as exc:
+            from romams.cli.wing import bad_input
+
+            raise bad_input(exc, NASTRAN_HINTS, "--modes") from None
     machs = sorted(set(float(m) for m in mach))
     if solver not in SOLVERS or not available(solver):
         raise typer.BadParameter(f"unknown or unavailable solver {solver!r}; one of "
@@ -112,7 +155,7 @@ def flutter_command(
     ident = rom_identity(solver, na, nb, wing=w)
     try:
         models = cli_models(store, wing_id, w, machs, ident, basis_id=basis_id, samples=samples, modes=n_modes,
-                            mac_threshold=mac)
+                            mac_threshold=mac, external=external)
         if method == "rom-pms":
             modal = structure_modal(models, values, modes)
             trained = train_shapes(models.mesh, modal.shapes, machs, ident)
@@ -124,6 +167,10 @@ def flutter_command(
         hint = {"design": "--design", "modes": "--modes", "basis_id": "--basis-id"}.get(
             (exc.field or "").split(".")[0].split("[")[0], "--design/--modes")
         raise typer.BadParameter(exc.detail, param_hint=hint) from None
+    except ValueError as exc:  # a core input error (e.g. a planform-only wing without --modes)
+        from romams.cli.wing import bad_input
+
+        raise bad_input(exc, {**NASTRAN_HINTS, "design": "--design", "modes": "--modes"}, "--wing") from None
     if plot is not None:
         summary["plots"] = write_flutter_plots(plot, result.flutter)
     if as_json:

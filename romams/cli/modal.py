@@ -7,14 +7,21 @@ from typing import Any
 
 import typer
 
-from romams.cli.app import app
+from romams.cli.app import WING_HELP, app
 from romams_core.mesh import standard_mesh
 from romams_core.structure.modal import modal_analysis
 from romams_core.wing import WingDefinition, template
 
 
 def resolve_wing(name: str) -> WingDefinition:
-    """A wing by template name, else by stored name or id (the shared store)."""
+    """A wing file (.json / Nastran deck), else a template by name, else a stored wing by name or id."""
+    from romams.wing_files import is_wing_file, load_wing_file
+
+    if is_wing_file(name):
+        try:
+            return load_wing_file(name)
+        except (ValueError, ImportError) as exc:
+            raise typer.BadParameter(str(exc), param_hint="--wing") from None
     try:
         return template(name)
     except ValueError as tmpl_error:
@@ -61,7 +68,7 @@ def modal_summary(wing: WingDefinition, design: dict[str, float] | None, n_modes
 
 @app.command()
 def modal(
-    wing: str = typer.Option("cropped-delta", "--wing", help="Template name (cropped-delta, goland) or stored wing."),
+    wing: str = typer.Option("cropped-delta", "--wing", help=WING_HELP),
     baseline: bool = typer.Option(False, "--baseline", help="Analyse the wing's baseline structure."),
     design: str = typer.Option("", "--design", help="Design values NAME=VALUE,... (all variables)."),
     modes: int = typer.Option(4, "--modes", min=1, max=50, help="Number of modes."),
@@ -73,6 +80,9 @@ def modal(
     if baseline and design:
         raise typer.BadParameter("give either --baseline or --design, not both", param_hint="--design")
     values = parse_design(design) if design else None
+    if w.structure is None:
+        raise typer.BadParameter(f"wing {w.name!r} is planform-only (no built-in structure): its modes come from "
+                                 "outside (romams flutter --modes FILE)", param_hint="--wing")
     if values is None and not w.has_baseline:
         raise typer.BadParameter(f"wing {w.name!r} has no baseline; give --design "
                                  f"{','.join(n + '=...' for n in w.variable_names)}", param_hint="--design")

@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from romams.cli.app import app
+from romams.cli.app import WING_HELP, app
 from romams.pipeline import ensure_basis, ensure_roms, resolve_wing, rom_identity
 from romams.services.errors import ServiceError
 from romams.services.training import DEFAULT_SOLVER, SOLVERS, check_options, is_frequency_solver, quality_line
@@ -31,7 +31,7 @@ def _reduce_option(value: str | None) -> int | str | None:
 
 @app.command("train")
 def train_command(
-    wing: str = typer.Option("cropped-delta", "--wing", help="stored wing name / id, or a template name"),
+    wing: str = typer.Option("cropped-delta", "--wing", help=WING_HELP),
     mach: float = typer.Option(0.87, "--mach", min=0.0, max=0.99, help="free-stream Mach number"),
     solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver: dlm (doublet lattice, "
                                "rational-function ROM), uvlm (time domain, ARX ROM) or tsd (transonic small "
@@ -86,7 +86,10 @@ def train_command(
         wing_id, w = resolve_wing(store, wing)
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--wing") from None
-    basis_id, basis = ensure_basis(store, wing_id, w)  # says on stderr when it builds one
+    try:
+        basis_id, basis = ensure_basis(store, wing_id, w)  # says on stderr when it builds one
+    except ValueError as exc:  # a planform-only wing: its basis comes from its modes (romams flutter --modes)
+        raise typer.BadParameter(str(exc), param_hint="--wing") from None
     ident = rom_identity(solver, na, nb, options, wing=w)
     try:
         check_options(solver, ident["options"], basis.n_basis)

@@ -71,11 +71,14 @@ def structure_modal(models: Models, design: Any = None, modes: Any = None) -> An
 
     k = int(getattr(models.basis, "n_modes", 0) or DEFAULT_N_MODES)
     try:
-        if modes is not None:
-            from romams_core.modes_io import external_modal_result
-
-            return external_modal_result(modes, models.mesh)
         wing = models.wing
+        if modes is not None:
+            from romams_core.modes_io import wing_modal_result
+
+            return wing_modal_result(modes, wing, models.mesh)
+        if getattr(wing, "structure", True) is None:
+            raise InvalidInput("modes", f"required: wing {wing.name!r} is planform-only (no built-in structure); "
+                                        "give its modes")
         if design is None and wing.design_variables and not wing.has_baseline:
             raise InvalidInput("design", f"required: wing {wing.name!r} has no baseline structure")
         vec = None if design is None else np.asarray(wing.design_vector(design), dtype=float)
