@@ -91,7 +91,7 @@ def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     v = None if r.q_flutter_pa is None else math.sqrt(2.0 * r.q_flutter_pa / rho)
     # constant density at the experimental density, V swept from 0 (the DLM's table in aerodynamics.md 13.2)
     rd = flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, sweep="constant-density", rho_ref=rho,
-                          a_ref=v_exp / mach, v_max=2.0 * v_exp, k_band=rom.k_max)
+                          a_ref=v_exp / mach, v_max=2.0 * v_exp, k_band=getattr(rom, "k_max", None))
     row: dict[str, Any] = {
         "case": "agard-445.6", "mach": mach, "solver": solver, "options": options, "rho": rho, "v_f": v,
         "rho_f": r.rho_flutter, "k_f": r.k_flutter,
