@@ -163,6 +163,10 @@ class BatchRequest(FlightFields):
     method: Literal["rom-ams"] = "rom-ams"
     basis_id: RowId | None = Field(default=None, description="basis to use (default: the wing's active basis)")
     solver: Literal["dlm", "uvlm", "tsd"] | None = Field(default=None, description=SOLVER_CHOICE)
+    run_id: RowId | None = Field(default=None, description="run (POST /api/v1/runs) whose evaluations these designs "
+                                 "are: each is stored compactly as an evaluation of the run")
+    keep_vg: bool = Field(default=False, description="with run_id: keep the V-g data of every design of this batch "
+                          "(by default only a run's new best designs keep them)")
 
 
 class ActiveBasis(_Strict):
@@ -229,3 +233,16 @@ class JobOut(BaseModel):
     deliveries: int = 0
     worker: str | None = None
     params: dict[str, Any] = Field(default_factory=dict)
+
+
+class RunCreate(_Strict):
+    """A run (study): the evaluations of one optimization or UQ campaign, and its feasibility rule."""
+
+    name: Text = Field(min_length=1, max_length=200, description="a name for people (need not be unique)")
+    wing: int | Text | None = Field(default=None, description="the wing (id or name) whose designs the run evaluates")
+    mu_kg: FiniteFloat | None = Field(default=None, gt=0.0, description="penalty of an infeasible design (kg): "
+                                      "objective = mass + mu_kg (default 10)")
+    mac_threshold: FiniteFloat | None = Field(default=None, gt=0.0, le=1.0,
+                                              description="smallest acceptable mode-fit MAC (default 0.98)")
+    envelope_tol_m: FiniteFloat | None = Field(default=None, ge=0.0, description="a safe altitude up to this much "
+                                               "above the baseline's still passes (m, default 0.01)")

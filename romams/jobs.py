@@ -189,8 +189,8 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
             reply: Callable[[Outcome], None] | None = None) -> Outcome:
     """Run ``body(job, progress)`` for a job row with guarded start/finish; returns the Outcome.
 
-    A failure stores the error text and, as the job's result, the structured error ``{"error": {status,
-    field, detail, reason}}`` (typed errors keep their field from the core to the HTTP problem).
+    A failure stores the error text, its traceback and, as the job's result, the structured error ``{"error":
+    {status, field, detail, reason}}`` (typed errors keep their field from the core to the HTTP problem).
     ``reply(outcome)`` (a synchronous caller waiting on the result backend) is called as soon as the body has
     succeeded, before the final row update, so the answer does not wait for the bookkeeping.
     """
@@ -214,13 +214,14 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
         err = error_dict(exc) if isinstance(exc, ValueError) else {"status": 500, "field": None,
                                                                     "detail": str(exc), "reason": str(exc)}
         store.jobs.finish(job_id, JobStatus.FAILED, error=f"{type(exc).__name__}: {exc}", message="failed",
-                          result={"error": err})
+                          result={"error": err}, traceback=traceback.format_exc(limit=12))
         return Outcome(JobStatus.FAILED, error=err)
     except Exception as exc:  # noqa: BLE001 - every failure must end in a final job state
         tb = traceback.format_exc(limit=8)
         name = type(exc).__name__
         reason = "time limit exceeded" if name in ("SoftTimeLimitExceeded", "TimeLimitExceeded") else str(exc)
-        store.jobs.finish(job_id, JobStatus.FAILED, error=f"{name}: {reason}\n{tb}", message="failed")
+        store.jobs.finish(job_id, JobStatus.FAILED, error=f"{name}: {reason}\n{tb}", message="failed",
+                          traceback=traceback.format_exc(limit=12))
         return Outcome(JobStatus.FAILED, error={"status": 500, "field": None, "detail": f"{name}: {reason}",
                                                 "reason": reason})
     outcome = Outcome(JobStatus.SUCCEEDED, result)
@@ -244,7 +245,8 @@ def fanout_outcome(store: Store, parent_id: str) -> list[dict[str, Any]] | None:
     if failed:
         first = failed[0]
         store.jobs.finish(parent_id, JobStatus.FAILED,
-                          error=f"chunk {first['params'].get('index')} failed: {first['error']}")
+                          error=f"chunk {first['params'].get('index')} failed: {first['error']}",
+                          traceback=first.get("traceback"))
         return None
     return kids
 
