@@ -216,5 +216,5 @@ def batch_finalize(job_id: str) -> None:
         assemble_batch(job_id)
 
 
-__all__ = ["JobFailed", "Outcome", "assemble_batch", "save_run_chunk", "evaluate", "evaluate_pms", "flutter_chunk", "flutter_job",
-           "flutter_pms_job"]
+__all__ = ["JobFailed", "Outcome", "assemble_batch", "evaluate", "evaluate_pms", "flutter_chunk", "flutter_job",
+           "flutter_pms_job", "save_run_chunk"]
