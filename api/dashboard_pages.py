@@ -81,7 +81,7 @@ def run_page(run_id: int, svc: Service = Depends(service)) -> HTMLResponse:
             'aria-label="design variables"></svg></figure></div>'
             '<h3>Designs <select id="design-order"><option value="new">newest first</option>'
             '<option value="best">best first</option></select></h3>'
-            '<table id="designs"><thead></thead><tbody></tbody></table></section>')
+            '<div class="scroll"><table id="designs"><thead></thead><tbody></tbody></table></div></section>')
     return page(svc, f"run {run['id']}", body, ("plots.js", "run.js"))
 
 

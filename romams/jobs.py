@@ -11,11 +11,14 @@ worker died and queued jobs whose message may be lost.
 
 from __future__ import annotations
 
+import os
+import re
 import threading
 import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from romams.persistence import FINAL, DatabaseUnavailable, JobStatus, Store, UnitOfWork
@@ -31,6 +34,24 @@ except ImportError:  # pragma: no cover - the protocol module is part of the cor
 
 
 ProgressFn = Callable[[float, str], None]
+#: the directory holding the project's packages: traceback file names are shown relative to it
+PROJECT_ROOT = str(Path(__file__).resolve().parents[1]) + os.sep
+_FILE = re.compile(r'File "([^"]+)"')
+
+
+def format_traceback(limit: int = 12) -> str:
+    """The traceback of the exception being handled, file names relative to the project (or to site-packages), so
+    that a stored job shows no path of the worker's machine."""
+
+    def short(m: re.Match[str]) -> str:
+        path = m.group(1)
+        if path.startswith(PROJECT_ROOT):
+            path = path[len(PROJECT_ROOT):]
+        elif "site-packages" + os.sep in path:
+            path = path.split("site-packages" + os.sep, 1)[1]
+        return f'File "{path}"'
+
+    return _FILE.sub(short, traceback.format_exc(limit=limit))
 
 
 class JobFailed(Exception):
@@ -214,14 +235,14 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
         err = error_dict(exc) if isinstance(exc, ValueError) else {"status": 500, "field": None,
                                                                     "detail": str(exc), "reason": str(exc)}
         store.jobs.finish(job_id, JobStatus.FAILED, error=f"{type(exc).__name__}: {exc}", message="failed",
-                          result={"error": err}, traceback=traceback.format_exc(limit=12))
+                          result={"error": err}, traceback=format_traceback())
         return Outcome(JobStatus.FAILED, error=err)
     except Exception as exc:  # noqa: BLE001 - every failure must end in a final job state
         tb = traceback.format_exc(limit=8)
         name = type(exc).__name__
         reason = "time limit exceeded" if name in ("SoftTimeLimitExceeded", "TimeLimitExceeded") else str(exc)
         store.jobs.finish(job_id, JobStatus.FAILED, error=f"{name}: {reason}\n{tb}", message="failed",
-                          traceback=traceback.format_exc(limit=12))
+                          traceback=format_traceback())
         return Outcome(JobStatus.FAILED, error={"status": 500, "field": None, "detail": f"{name}: {reason}",
                                                 "reason": reason})
     outcome = Outcome(JobStatus.SUCCEEDED, result)

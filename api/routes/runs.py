@@ -60,8 +60,8 @@ def run_evaluations(run_id: int, after_id: int = Query(default=0, ge=0, le=ID_MA
                     svc: Service = Depends(service)) -> dict[str, Any]:
     """The run's evaluations in the order they were stored, those with id > ``after_id`` (poll with the last id
     seen). Each: x (design vector), mass_kg, objective (kg), feasible, envelope_ok, min_mac, error, evaluation_id
-    (V-g data, when kept) and flutter: [[mach, v_flutter_m_s, frequency_hz, flutter_mode, safe_altitude_m,
-    benchmark_safe_altitude_m]] per Mach."""
+    (V-g data, when kept) and flutter: [[mach, v_eas_m_s, frequency_hz, flutter_mode, safe_altitude_m,
+    benchmark_safe_altitude_m]] per Mach (v_eas_m_s: equivalent airspeed at flutter)."""
     run = run_or_404(svc, run_id)
     rows = svc.store.runs.evaluations(run_id, after_id, limit)
     return {"run_id": run["id"], "flutter_fields": list(FLUTTER_FIELDS), "evaluations": rows,

@@ -31,7 +31,7 @@ window.svgplot = (function () {
   function frame(svg, o) {
     while (svg.firstChild) svg.removeChild(svg.firstChild);
     const vb = svg.viewBox.baseVal;
-    const W = vb.width, H = vb.height, L = 64, Rm = 12, T = 12, B = 42;
+    const W = vb.width, H = vb.height, L = 64, Rm = 12, T = 24, B = 42;
     const pad = function (lo, hi) { const d = hi - lo || Math.abs(hi) || 1; return [lo - 0.04 * d, hi + 0.04 * d]; };
     const xs = o.exactX ? [o.xmin, o.xmax] : pad(o.xmin, o.xmax);
     const ys = pad(o.ymin, o.ymax);
@@ -72,14 +72,18 @@ window.svgplot = (function () {
     return g;
   }
 
+  // one row of legend entries above the plot area (it never covers the data)
   function legend(f, items) {
     const g = el(f.svg, "g", { class: "legend" });
-    items.forEach(function (it, i) {
-      const yy = f.T + 14 + 16 * i, xx = f.W - f.Rm - 170;
-      if (it.dot) el(g, "circle", { cx: xx + 9, cy: yy - 4, r: 4, fill: it.color });
-      else el(g, "line", { x1: xx, x2: xx + 18, y1: yy - 4, y2: yy - 4, stroke: it.color, "stroke-width": 3 });
-      el(g, "text", { x: xx + 24, y: yy, "font-size": 11 }, it.label);
-    });
+    let xx = f.L;
+    for (const it of items) {
+      const yy = 13;
+      if (it.dot) el(g, "circle", { cx: xx + 6, cy: yy - 4, r: 4, fill: it.color });
+      else el(g, "line", { x1: xx, x2: xx + 14, y1: yy - 4, y2: yy - 4, stroke: it.color, "stroke-width": 3,
+                           "stroke-dasharray": it.dash || "none" });
+      el(g, "text", { x: xx + 18, y: yy, "font-size": 11 }, it.label);
+      xx += 30 + 6.2 * it.label.length;
+    }
     return g;
   }
 

@@ -62,8 +62,8 @@
     P.dots(f, rows.map(function (r) { return [r[0], r[5]]; }), { fill: "#333", class: "benchmark-points" }, 3);
     P.line(f, rows.map(function (r) { return [r[0], r[4]]; }), { stroke: DARK, class: "best-design" });
     P.dots(f, rows.map(function (r) { return [r[0], r[4]]; }), { fill: DARK }, 3.5);
-    P.legend(f, [{ label: "best design (#" + best.id + ")", color: DARK }, { label: "benchmark (baseline)", color: "#333" },
-                 { label: "passes (at or below)", color: GREEN, dot: true }, { label: "fails (above)", color: RED, dot: true }]);
+    P.legend(f, [{ label: "best design (#" + best.id + ")", color: DARK }, { label: "benchmark (baseline)", color: "#333", dash: "6 4" },
+                 { label: "passes (at/below)", color: GREEN, dot: true }, { label: "fails (above)", color: RED, dot: true }]);
   }
 
   function drawParallel() {
@@ -103,7 +103,9 @@
     let head = "<tr><th>#</th><th>batch</th>";
     for (let i = 0; i < nx; i++) head += "<th>" + R.esc(dvs[i] ? dvs[i].name : "x" + (i + 1)) + "</th>";
     head += "<th>mass (kg)</th><th>objective (kg)</th><th>feasible</th><th>envelope ok</th><th>min MAC</th>";
-    for (const m of machs) head += "<th>V<sub>f</sub> M" + m + " (m/s)</th><th>f<sub>f</sub> (Hz)</th>";
+    for (const m of machs) {
+      head += "<th>M " + m + ": V<sub>EAS,f</sub> (m/s)</th><th>f<sub>f</sub> (Hz)</th><th>safe alt. (m)</th>";
+    }
     head += "<th>V-g</th></tr>";
     table.tHead.innerHTML = head;
     const index = new Map(evals.map(function (e, i) { return [e.id, i + 1]; }));
@@ -121,7 +123,10 @@
       h += "<td>" + num(e.mass_kg) + "</td><td>" + num(e.objective) + '</td><td class="' + (e.feasible ? "ok" : "bad") + '">' +
         (e.error ? R.esc(e.error) : e.feasible ? "yes" : "no") + "</td><td>" + (e.envelope_ok === null ? "&mdash;" : e.envelope_ok ? "yes" : "no") +
         "</td><td>" + num(e.min_mac, 6) + "</td>";
-      for (let k = 0; k < machs.length; k++) { const r = e.flutter[k] || []; h += "<td>" + num(r[1]) + "</td><td>" + num(r[2]) + "</td>"; }
+      for (let k = 0; k < machs.length; k++) {
+        const r = e.flutter[k] || [];
+        h += "<td>" + num(r[1]) + "</td><td>" + num(r[2]) + "</td><td>" + num(r[4], 5) + "</td>";
+      }
       h += "<td>" + (e.evaluation_id ? '<a href="/api/v1/evaluations/' + e.evaluation_id + '/plot.png?kind=vg">plot</a>' : "") + "</td></tr>";
       return h;
     }).join("");

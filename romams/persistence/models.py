@@ -159,7 +159,7 @@ class Run(Base):
 
 class RunEvaluation(Base):
     """One evaluated design of a run, compact: design vector, mass, objective, flags and per-Mach flutter rows
-    (``flutter``: [[mach, v_f m/s, f_f Hz, mode, safe altitude m, benchmark safe altitude m]]). Its V-g data
+    (``flutter``: [[mach, flutter EAS m/s, f_f Hz, mode, safe altitude m, benchmark safe altitude m]]). Its V-g data
     are stored (as an ``evaluations`` row, ``evaluation_id``) only on request or for a new best design."""
 
     __tablename__ = "run_evaluations"

@@ -15,7 +15,7 @@ from typing import Any
 #: a run's settings and their defaults (the client's FlutterProblem defaults)
 DEFAULT_SETTINGS: dict[str, Any] = {"mu_kg": 10.0, "mac_threshold": 0.98, "envelope_tol_m": 0.01}
 #: per-Mach flutter row of a run evaluation
-FLUTTER_FIELDS = ("mach", "v_flutter_m_s", "frequency_hz", "flutter_mode", "safe_altitude_m",
+FLUTTER_FIELDS = ("mach", "v_eas_m_s", "frequency_hz", "flutter_mode", "safe_altitude_m",
                   "benchmark_safe_altitude_m")
 
 
@@ -44,13 +44,15 @@ def feasible(summary: Mapping[str, Any], settings: Mapping[str, Any]) -> tuple[b
 
 
 def flutter_rows(summary: Mapping[str, Any]) -> list[list[Any]]:
-    """Per-Mach [mach, v_f (m/s), f_f (Hz), mode, safe altitude (m), benchmark safe altitude (m)] of a summary."""
+    """Per-Mach [mach, flutter EAS (m/s), f_f (Hz), mode, safe altitude (m), benchmark safe altitude (m)] of a
+    summary. The equivalent airspeed carries the flutter dynamic pressure on any sweep (the true airspeed of a
+    constant-speed sweep is the same for every design)."""
     margin = summary.get("envelope_margin_m") or []
     out = []
     for i, r in enumerate(summary.get("results") or []):
         alt = r.get("safe_altitude_m")
         bench = None if alt is None or i >= len(margin) or margin[i] is None else float(alt) + float(margin[i])
-        out.append([_sig(r.get("mach")), _sig(r.get("v_flutter_m_s")), _sig(r.get("frequency_hz")),
+        out.append([_sig(r.get("mach")), _sig(r.get("v_eas_m_s")), _sig(r.get("frequency_hz")),
                     r.get("flutter_mode"), _sig(alt), _sig(bench)])
     return out
 

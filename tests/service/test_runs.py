@@ -17,6 +17,7 @@ from .conftest import BACKENDS, WorkerProcess, backend_settings, service_env, wa
 
 MACHS = [0.87]
 FAST = {"heartbeat_s": 0.5, "job_stale_s": 8.0, "batch_sync_max": 4, "batch_chunk": 3, "sync_timeout_s": 120}
+FAST_K = [0.0, 0.1, 0.3, 0.6, 1.0, 1.5]  # reduced frequencies of the ROM fit: fewer than the default, a quick ROM
 #: stored payload of one design of a 7-variable, 1-Mach run (bytes): the design vector and the flutter rows
 BYTES_PER_DESIGN_MAX = 400
 
@@ -27,13 +28,14 @@ def svc(tmp_path_factory):
     settings = Settings(data_dir=data, **FAST)
     worker = WorkerProcess(service_env(data, **FAST), data / "worker.log")
     try:
-        with TestClient(create_app(settings)) as client:
+        app = create_app(settings)
+        with TestClient(app) as client:
             wid = client.post("/api/v1/wings", json={"template": "cropped-delta", "name": "cd-runs"}).json()["id"]
             r = client.post(f"/api/v1/wings/{wid}/basis", json={"samples": 6, "modes": 3, "seed": 1})
             assert wait_job(client, r.json()["job_id"])["status"] == "succeeded", worker.log_tail()
-            r = client.post(f"/api/v1/wings/{wid}/roms", json={"machs": MACHS})
+            r = client.post(f"/api/v1/wings/{wid}/roms", json={"machs": MACHS, "options": {"k_values": FAST_K}})
             assert all(wait_job(client, j)["status"] == "succeeded" for j in r.json()["job_ids"]), worker.log_tail()
-            yield SimpleNamespace(client=client, wing_id=wid, worker=worker)
+            yield SimpleNamespace(client=client, wing_id=wid, worker=worker, store=app.state.service.store)
     finally:
         worker.stop()
 
@@ -113,7 +115,7 @@ def test_every_design_of_a_run_is_stored_compactly(svc):
         (mach, vf, fhz, mode, alt, bench), = row["flutter"]
         p = res["results"][0]
         assert mach == MACHS[0] and mode == p["flutter_mode"]
-        assert vf == pytest.approx(p["v_flutter_m_s"], rel=1e-5) and fhz == pytest.approx(p["frequency_hz"], rel=1e-5)
+        assert vf == pytest.approx(p["v_eas_m_s"], rel=1e-5) and fhz == pytest.approx(p["frequency_hz"], rel=1e-5)
         assert bench == pytest.approx(alt + res["envelope_margin_m"][0], rel=1e-5)
     s = c.get(f"/api/v1/runs/{run_id}").json()
     assert s["n_evaluations"] == 9 and s["n_feasible"] + s["n_infeasible"] == 9 and s["n_failed"] == 0
@@ -126,7 +128,8 @@ def test_every_design_of_a_run_is_stored_compactly(svc):
     assert len(kept) == s["n_with_vg"] <= 4 and (not feas or best["evaluation_id"] is not None)
     if feas:
         vg = c.get(f"/api/v1/evaluations/{best['evaluation_id']}/vg").json()
-        assert vg["machs"][0]["v_flutter_m_s"] == pytest.approx(best["flutter"][0][1], rel=1e-5)
+        assert vg["machs"][0]["mach"] == MACHS[0] and len(vg["machs"][0]["g"]) > 0  # the V-g branches
+        assert vg["machs"][0]["omega_flutter_rad_s"] == pytest.approx(2 * np.pi * best["flutter"][0][2], rel=1e-5)
     assert 0 < s["bytes_per_design"] <= BYTES_PER_DESIGN_MAX, s["bytes_per_design"]
     # incremental polling and the job filters: the batches are listed under their run
     assert len(c.get(f"/api/v1/runs/{run_id}/evaluations", params={"after_id": rows[4]["id"]}).json()
@@ -145,6 +148,13 @@ def test_keep_vg_keeps_every_design(svc):
     assert len(rows) == 3 and all(r["evaluation_id"] is not None for r in rows)
     ev = c.get(f"/api/v1/evaluations/{rows[0]['evaluation_id']}").json()
     assert ev["request"]["run_id"] == run_id and ev["request"]["design"] == rows[0]["x"]
+    from sqlalchemy import text
+
+    with svc.store.engine.connect() as conn:  # what keeping V-g data costs: one evaluation row per design
+        vg_bytes = conn.execute(text("SELECT length(blob) + length(summary) FROM evaluations WHERE id = :i"),
+                                {"i": rows[0]["evaluation_id"]}).scalar_one()
+    print(f"V-g evaluation of one design at {len(MACHS)} Mach: {vg_bytes} bytes")
+    assert vg_bytes > 10 * BYTES_PER_DESIGN_MAX  # why they are kept only on request or for a new best design
 
 
 def test_failed_job_keeps_its_traceback(svc):
@@ -154,6 +164,7 @@ def test_failed_job_keeps_its_traceback(svc):
     job = wait_job(svc.client, r.json()["job_id"])
     assert job["status"] == "failed" and "k_max" in job["error"], job
     assert job["traceback"].startswith("Traceback (most recent call last)") and "k_max" in job["traceback"]
+    assert 'File "romams/jobs.py"' in job["traceback"]  # file names relative to the project: no machine path
     assert job["events"] == [] or all(len(e) == 3 for e in job["events"])
     failed = svc.client.get("/api/v1/jobs", params={"status": "failed", "wing_id": svc.wing_id}).json()
     assert job["id"] in [j["id"] for j in failed]
