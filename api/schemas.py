@@ -233,6 +233,10 @@ class JobOut(BaseModel):
     deliveries: int = 0
     worker: str | None = None
     params: dict[str, Any] = Field(default_factory=dict)
+    run_id: int | None = Field(default=None, description="the run a batch belongs to")
+    traceback: str | None = Field(default=None, description="Python traceback of a failure")
+    events: list[list[Any]] = Field(default_factory=list, description="progress history: [ISO time, progress 0..1, "
+                                    "message], the last 50 messages")
 
 
 class RunCreate(_Strict):

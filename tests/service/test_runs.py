@@ -4,6 +4,7 @@ filters and the traceback of a failed job; the repository's one-statement chunk 
 
 from __future__ import annotations
 
+import re
 from types import SimpleNamespace
 
 import numpy as np
@@ -138,6 +139,11 @@ def test_every_design_of_a_run_is_stored_compactly(svc):
     assert jobs.headers["x-total-count"] == "2" and {j["run_id"] for j in jobs.json()} == {run_id}
     assert all(j["run_id"] is None for j in c.get("/api/v1/jobs", params={"include_runs": False}).json())
     assert c.get("/api/v1/jobs", params={"wing_id": 999999}).json() == []
+    page = c.get(f"/dashboard/runs/{run_id}")
+    assert page.status_code == 200 and 'id="history"' in page.text and 'id="envelope"' in page.text
+    scripts = [f'<script src="/static/{n}.js">' for n in ("common", "plots", "run")]
+    assert re.findall(r"<script[^>]*>", page.text) == scripts  # no inline script (the CSP allows none)
+    assert c.get("/dashboard/runs/999999").status_code == 404 and c.get("/dashboard/runs").status_code == 200
 
 
 def test_keep_vg_keeps_every_design(svc):
@@ -168,6 +174,10 @@ def test_failed_job_keeps_its_traceback(svc):
     assert job["events"] == [] or all(len(e) == 3 for e in job["events"])
     failed = svc.client.get("/api/v1/jobs", params={"status": "failed", "wing_id": svc.wing_id}).json()
     assert job["id"] in [j["id"] for j in failed]
+    page = svc.client.get(f"/dashboard/jobs/{job['id']}").text
+    assert "Traceback (most recent call last)" in page and "k_max" in page and 'id="job-error"' in page
+    assert svc.client.get("/dashboard/jobs/no-such-job").status_code == 404
+    assert svc.client.get("/dashboard/jobs").status_code == 200
 
 
 @pytest.fixture(params=BACKENDS)
@@ -211,3 +221,19 @@ def test_a_chunk_is_one_insert_statement(store):
     feas = [r for r in rows if r["feasible"]]
     assert best["objective"] == pytest.approx(min(r["objective"] for r in (feas or rows)), rel=1e-12)
     assert [r["x"] for r in store.runs.evaluations(run_id, limit=3)] == [r["x"] for r in rows[:3]]
+
+
+def test_progress_history_keeps_each_new_message(store):
+    from romams.persistence.jobs import EVENTS_MAX
+
+    job_id = store.jobs.create("basis", {})
+    assert store.jobs.start(job_id, max_deliveries=3)[0]
+    for i in range(EVENTS_MAX + 10):
+        assert store.jobs.progress(job_id, i / 100, f"step {i}")
+        assert store.jobs.progress(job_id, i / 100 + 0.001, f"step {i}")  # the same message: not appended again
+    events = store.jobs.get(job_id)["events"]
+    assert len(events) == EVENTS_MAX and [e[2] for e in events] == [f"step {i}" for i in range(10, EVENTS_MAX + 10)]
+    assert events[-1][1] == pytest.approx((EVENTS_MAX + 9) / 100, abs=1e-4) and events[-1][0].endswith("Z")
+    assert store.jobs.finish(job_id, "failed", error="boom", traceback="Traceback ...")
+    job = store.jobs.get(job_id)
+    assert job["traceback"] == "Traceback ..." and not store.jobs.progress(job_id, 1.0, "late")
