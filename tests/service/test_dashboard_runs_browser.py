@@ -63,11 +63,8 @@ def test_run_page_is_live_and_a_failed_job_shows_its_error(server):  # noqa: F81
     ex = _example()
     client = RomamsClient(base, timeout=120)
     wid = client.ensure_wing("cd-run-page", "cropped-delta")
-    t0 = time.monotonic()
     client.wait_job(client.start_basis(wid, samples=6, modes=3, seed=1), timeout_s=240, progress=False)
-    print("TIMING basis", time.monotonic() - t0)
     client.train(wid, MACHS, options={"k_values": FAST_K}, timeout_s=240, progress=False)
-    print("TIMING train", time.monotonic() - t0)
     problem = FlutterProblem(client, wid, machs=MACHS, mu=10.0, run="DE demo: cropped delta")
     evaluate = problem.evaluate
 
@@ -100,7 +97,6 @@ def test_run_page_is_live_and_a_failed_job_shows_its_error(server):  # noqa: F81
                     break
                 time.sleep(0.25)
             de.join(timeout=60)
-            print("TIMING de", time.monotonic() - t0)
             assert out.get("nfev") == total, out
             # it updated while the run went on: intermediate generations were drawn, not only the end
             assert sorted(seen)[-1] == total and len([n for n in seen if 0 < n < total]) >= 2, seen
@@ -134,7 +130,6 @@ def test_run_page_is_live_and_a_failed_job_shows_its_error(server):  # noqa: F81
             assert "Traceback (most recent call last)" in page.text_content("#job-error pre.traceback")
             assert page.get_attribute("#job-error time, table.kv time", "title") is not None
             _shot(page, tmp, "dashboard_job.png")
-            print("TIMING job", time.monotonic() - t0)
 
             # the job list: the run's batches only when filtered by run; relative times with the ISO time as title
             page.goto(f"{base}/dashboard/jobs")

@@ -1,44 +1,26 @@
 """Runs (studies): the API (201/404/422 problem+json), every design of a tagged batch stored compactly as an
-evaluation of its run (real worker subprocess, SQLite), V-g data kept only on request or for new best designs, job
-filters and the traceback of a failed job; the repository's one-statement chunk insert on SQLite and PostgreSQL."""
+evaluation of its run (the shared embedded service: real worker subprocess, SQLite), V-g data kept only on request
+or for new best designs, job filters, the traceback and progress history of jobs, the run and job pages; the
+repository's one-statement chunk insert on SQLite and PostgreSQL."""
 
 from __future__ import annotations
 
 import re
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from fastapi.testclient import TestClient
 
-from api.app import create_app
-from romams.settings import Settings
+from .conftest import BACKENDS, SQLITE_MACHS, backend_settings, wait_job
 
-from .conftest import BACKENDS, WorkerProcess, backend_settings, service_env, wait_job
-
-MACHS = [0.87]
-FAST = {"heartbeat_s": 0.5, "job_stale_s": 8.0, "batch_sync_max": 4, "batch_chunk": 3, "sync_timeout_s": 120}
-FAST_K = [0.0, 0.1, 0.3, 0.6, 1.0, 1.5]  # reduced frequencies of the ROM fit: fewer than the default, a quick ROM
-#: stored payload of one design of a 7-variable, 1-Mach run (bytes): the design vector and the flutter rows
+MACHS = SQLITE_MACHS
+#: stored payload of one design of a 7-variable, 2-Mach run (bytes): the design vector and the flutter rows
 BYTES_PER_DESIGN_MAX = 400
 
 
 @pytest.fixture(scope="module")
-def svc(tmp_path_factory):
-    data = tmp_path_factory.mktemp("romams-runs")
-    settings = Settings(data_dir=data, **FAST)
-    worker = WorkerProcess(service_env(data, **FAST), data / "worker.log")
-    try:
-        app = create_app(settings)
-        with TestClient(app) as client:
-            wid = client.post("/api/v1/wings", json={"template": "cropped-delta", "name": "cd-runs"}).json()["id"]
-            r = client.post(f"/api/v1/wings/{wid}/basis", json={"samples": 6, "modes": 3, "seed": 1})
-            assert wait_job(client, r.json()["job_id"])["status"] == "succeeded", worker.log_tail()
-            r = client.post(f"/api/v1/wings/{wid}/roms", json={"machs": MACHS, "options": {"k_values": FAST_K}})
-            assert all(wait_job(client, j)["status"] == "succeeded" for j in r.json()["job_ids"]), worker.log_tail()
-            yield SimpleNamespace(client=client, wing_id=wid, worker=worker, store=app.state.service.store)
-    finally:
-        worker.stop()
+def svc(sqlite_service):
+    """The embedded service with a real worker (conftest.sqlite_service, shared with test_api_sqlite.py)."""
+    return sqlite_service
 
 
 def _designs(n: int, seed: int) -> list[list[float]]:
@@ -69,7 +51,7 @@ def _batch(svc, designs: list, **extra) -> list[dict]:
 
 def test_create_and_read_runs(svc):
     c = svc.client
-    r = c.post("/api/v1/runs", json={"name": "DE study", "wing": "cd-runs", "mu_kg": 5.0})
+    r = c.post("/api/v1/runs", json={"name": "DE study", "wing": "cd-test", "mu_kg": 5.0})
     assert r.status_code == 201, r.text
     run = r.json()
     assert r.headers["location"] == f"/api/v1/runs/{run['id']}"
@@ -113,20 +95,22 @@ def test_every_design_of_a_run_is_stored_compactly(svc):
         assert row["feasible"] == ok and row["mass_kg"] == pytest.approx(res["mass_kg"], rel=1e-12)
         assert row["objective"] == pytest.approx(objective, rel=1e-12)
         assert row["min_mac"] == pytest.approx(min(res["mac"]), rel=1e-7)
-        (mach, vf, fhz, mode, alt, bench), = row["flutter"]
-        p = res["results"][0]
-        assert mach == MACHS[0] and mode == p["flutter_mode"]
-        assert vf == pytest.approx(p["v_eas_m_s"], rel=1e-5) and fhz == pytest.approx(p["frequency_hz"], rel=1e-5)
-        assert bench == pytest.approx(alt + res["envelope_margin_m"][0], rel=1e-5)
+        assert [f[0] for f in row["flutter"]] == MACHS
+        for (_, vf, fhz, mode, alt, bench), p, margin in zip(row["flutter"], res["results"], res["envelope_margin_m"],
+                                                             strict=True):
+            assert mode == p["flutter_mode"] and vf == pytest.approx(p["v_eas_m_s"], rel=1e-5)
+            assert fhz == pytest.approx(p["frequency_hz"], rel=1e-5)
+            assert alt == pytest.approx(p["safe_altitude_m"], rel=1e-5)
+            assert bench == pytest.approx(alt + margin, rel=1e-5)
     s = c.get(f"/api/v1/runs/{run_id}").json()
     assert s["n_evaluations"] == 9 and s["n_feasible"] + s["n_infeasible"] == 9 and s["n_failed"] == 0
     assert s["n_feasible"] == sum(r["feasible"] for r in rows) and s["status"] == "idle"
     feas = [r for r in rows if r["feasible"]]
     best = min(feas or rows, key=lambda r: r["objective"])
     assert s["best"]["id"] == best["id"] and s["best_objective"] == best["objective"]
-    # V-g data only for new best designs: at most one per chunk (4 chunks), and the best design has them
+    # V-g data only for new best designs: at most one per chunk (3 + 3 chunks), and the best design has them
     kept = [r for r in rows if r["evaluation_id"] is not None]
-    assert len(kept) == s["n_with_vg"] <= 4 and (not feas or best["evaluation_id"] is not None)
+    assert len(kept) == s["n_with_vg"] <= 6 and (not feas or best["evaluation_id"] is not None)
     if feas:
         vg = c.get(f"/api/v1/evaluations/{best['evaluation_id']}/vg").json()
         assert vg["machs"][0]["mach"] == MACHS[0] and len(vg["machs"][0]["g"]) > 0  # the V-g branches
@@ -156,10 +140,11 @@ def test_keep_vg_keeps_every_design(svc):
     assert ev["request"]["run_id"] == run_id and ev["request"]["design"] == rows[0]["x"]
     from sqlalchemy import text
 
-    with svc.store.engine.connect() as conn:  # what keeping V-g data costs: one evaluation row per design
+    engine = svc.app.state.service.store.engine
+    with engine.connect() as conn:  # what keeping V-g data costs: one evaluation row per design
         vg_bytes = conn.execute(text("SELECT length(blob) + length(summary) FROM evaluations WHERE id = :i"),
                                 {"i": rows[0]["evaluation_id"]}).scalar_one()
-    print(f"V-g evaluation of one design at {len(MACHS)} Mach: {vg_bytes} bytes")
+    print(f"V-g evaluation of one design at {len(MACHS)} Machs: {vg_bytes} bytes")
     assert vg_bytes > 10 * BYTES_PER_DESIGN_MAX  # why they are kept only on request or for a new best design
 
 
@@ -216,7 +201,7 @@ def test_a_chunk_is_one_insert_statement(store):
     assert len(inserts) == 1 and "run_evaluations" in inserts[0]
     counts = store.runs.counts(run_id)
     assert counts["n_evaluations"] == 64 and counts["n_feasible"] == sum(r["feasible"] for r in rows)
-    assert counts["payload_bytes"] / 64 <= BYTES_PER_DESIGN_MAX + 150  # 2 Machs, 7 variables
+    assert counts["payload_bytes"] / 64 <= BYTES_PER_DESIGN_MAX  # 2 Machs, 7 variables
     best = store.runs.best(run_id)
     feas = [r for r in rows if r["feasible"]]
     assert best["objective"] == pytest.approx(min(r["objective"] for r in (feas or rows)), rel=1e-12)
