@@ -62,8 +62,8 @@
     P.dots(f, rows.map(function (r) { return [r[0], r[5]]; }), { fill: "#333", class: "benchmark-points" }, 3);
     P.line(f, rows.map(function (r) { return [r[0], r[4]]; }), { stroke: DARK, class: "best-design" });
     P.dots(f, rows.map(function (r) { return [r[0], r[4]]; }), { fill: DARK }, 3.5);
-    P.legend(f, [{ label: "best design (#" + best.id + ")", color: DARK }, { label: "benchmark (baseline)", color: "#333", dash: "6 4" },
-                 { label: "passes (at/below)", color: GREEN, dot: true }, { label: "fails (above)", color: RED, dot: true }]);
+    P.legend(f, [{ label: "best design #" + best.id, color: DARK }, { label: "benchmark", color: "#333", dash: "6 4" },
+                 { label: "passes", color: GREEN, dot: true }, { label: "fails", color: RED, dot: true }]);
   }
 
   function drawParallel() {
