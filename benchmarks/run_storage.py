@@ -13,7 +13,6 @@ import argparse
 import json
 
 import numpy as np
-from sqlalchemy import text
 
 from romams.persistence import open_store
 from romams.services.runs import compact_row, run_settings
@@ -47,11 +46,9 @@ def main() -> None:
             uow.runs.add_evaluations(run_id, rows)
     out = {"designs": args.designs, "machs": args.machs, "dialect": store.engine.dialect.name,
            "payload_bytes_per_design": store.runs.counts(run_id)["payload_bytes"] / args.designs}
-    if store.engine.dialect.name == "postgresql":
-        with store.engine.connect() as conn:
-            n = conn.execute(text("SELECT count(*) FROM run_evaluations")).scalar_one()
-            size = conn.execute(text("SELECT pg_total_relation_size('run_evaluations')")).scalar_one()
-        out["table_bytes_per_design"] = size / n
+    rows, size = store.runs.table_size()
+    if size is not None:  # PostgreSQL: the table on disk, every run in it
+        out["table_bytes_per_design"] = size / rows
     print(json.dumps(out, indent=1))
 
 

@@ -97,3 +97,10 @@ class RunRepository(Repository):
         n, feasible, failed, with_vg, payload_bytes = (int(v or 0) for v in row)
         return {"n_evaluations": n, "n_feasible": feasible, "n_infeasible": n - feasible - failed, "n_failed": failed,
                 "n_with_vg": with_vg, "payload_bytes": payload_bytes}
+
+    def table_size(self) -> tuple[int, int | None]:
+        """(rows of run_evaluations, its size on disk with indexes and TOAST in bytes: PostgreSQL only, else None)."""
+        rows = int(self._session.scalar(select(func.count(RunEvaluation.id))) or 0)
+        if self._session.get_bind().dialect.name != "postgresql":
+            return rows, None
+        return rows, int(self._session.scalar(select(func.pg_total_relation_size("run_evaluations"))) or 0)
