@@ -9,7 +9,7 @@ from fastapi import APIRouter, Depends, Query, Response
 from api.deps import Service, require_key, service, wing_or_404
 from api.openapi import FOUND, READ, WING, WRITE
 from api.problems import Problem
-from api.schemas import RunCreate
+from api.schemas import RunCreate, RunEvaluations, RunSummary
 from romams.persistence import ID_MAX
 from romams.services.runs import FLUTTER_FIELDS, run_settings, run_summary
 
@@ -31,7 +31,8 @@ def summary_of(svc: Service, run: dict[str, Any]) -> dict[str, Any]:
                            uow.jobs.active_of_run(run["id"]))
 
 
-@router.post("/runs", status_code=201, dependencies=[Depends(require_key)], responses={**WRITE, **WING})
+@router.post("/runs", status_code=201, dependencies=[Depends(require_key)],
+             responses={**WRITE, **WING, 201: {"model": RunSummary, "description": "the new run (Location header)"}})
 def create_run(body: RunCreate, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Create a run; tag batches with its id (``run_id``) to store their designs as its evaluations."""
     wid = None if body.wing is None else wing_or_404(svc, str(body.wing))[0]
@@ -41,20 +42,21 @@ def create_run(body: RunCreate, response: Response, svc: Service = Depends(servi
     return summary_of(svc, run_or_404(svc, run_id))
 
 
-@router.get("/runs")
+@router.get("/runs", responses={200: {"model": list[RunSummary], "description": "runs, newest first"}})
 def list_runs(limit: int = Query(default=50, ge=1, le=500), offset: int = Query(default=0, ge=0, le=ID_MAX),
               svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Newest runs first, each with its summary."""
     return [summary_of(svc, r) for r in svc.store.runs.recent(limit, offset)]
 
 
-@router.get("/runs/{run_id}", responses=FOUND)
+@router.get("/runs/{run_id}", responses={**FOUND, 200: {"model": RunSummary, "description": "the run"}})
 def get_run(run_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
     """A run: counts of evaluations (feasible, infeasible, failed), best design so far, status, bytes per design."""
     return summary_of(svc, run_or_404(svc, run_id))
 
 
-@router.get("/runs/{run_id}/evaluations", responses=FOUND)
+@router.get("/runs/{run_id}/evaluations",
+            responses={**FOUND, 200: {"model": RunEvaluations, "description": "the evaluations after after_id"}})
 def run_evaluations(run_id: int, after_id: int = Query(default=0, ge=0, le=ID_MAX),
                     limit: int = Query(default=1000, ge=1, le=10000),
                     svc: Service = Depends(service)) -> dict[str, Any]:
