@@ -63,11 +63,13 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
     app.add_middleware(RequestGuard, settings=settings)
 
     from api.dashboard import router as dashboard_router
-    from api.routes import flutter, jobs, modes, wings
+    from api.dashboard_pages import router as pages_router
+    from api.routes import flutter, jobs, modes, runs, wings
 
-    for r in (wings.router, jobs.router, flutter.router, modes.router):
+    for r in (wings.router, jobs.router, flutter.router, modes.router, runs.router):
         app.include_router(r, prefix="/api/v1")
     app.include_router(dashboard_router)
+    app.include_router(pages_router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
 
     @app.get("/", include_in_schema=False)

@@ -1,7 +1,8 @@
 """Server-rendered dashboard (/dashboard): jobs with live progress, wings, bases, ROMs, evaluations.
 
 Plain HTML built with ``html.escape`` (no template engine, no third-party JS); api/static/dashboard.js
-polls /api/v1/jobs every second and updates the job table in place.
+polls /api/v1/jobs every second and updates the job table in place (the batches of runs are left out: a run is one
+row of the runs table, its page is api.dashboard_pages).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 from fastapi import APIRouter, Depends
 from fastapi.responses import HTMLResponse
 
+from api.dashboard_pages import when
 from api.deps import Service, service
 
 router = APIRouter(include_in_schema=False)
@@ -34,10 +36,10 @@ def job_row(j: dict[str, Any]) -> str:
     """One row of the jobs table (the JS poller renders the same markup). No inline style (the Content-Security-
     Policy allows none): dashboard.js sizes each bar from its ``data-pct``."""
     pct = round(100 * float(j["progress"]))
-    return (f'<tr data-job="{e(j["id"])}"><td class="mono">{e(j["id"][:8])}</td><td>{e(j["kind"])}</td>'
-            f'<td class="st st-{e(j["status"])}">{e(j["status"])}</td>'
+    return (f'<tr data-job="{e(j["id"])}"><td><a class="mono" href="/dashboard/jobs/{e(j["id"])}">{e(j["id"][:8])}'
+            f'</a></td><td>{e(j["kind"])}</td><td class="st st-{e(j["status"])}">{e(j["status"])}</td>'
             f'<td><div class="bar"><div class="fill" data-pct="{pct}"></div></div>'
-            f'<span class="pct">{pct}%</span></td><td>{e(j["message"])}</td><td>{e(j["created_at"])}</td></tr>')
+            f'<span class="pct">{pct}%</span></td><td>{e(j["message"])}</td><td>{when(j["created_at"])}</td></tr>')
 
 
 def _bases_html(svc: Service, wid: int) -> str:
@@ -112,7 +114,7 @@ def _evaluations_html(svc: Service) -> str:
 @router.get("/dashboard", response_class=HTMLResponse)
 def dashboard(svc: Service = Depends(service)) -> HTMLResponse:
     """The dashboard page."""
-    jobs = svc.store.jobs.recent(limit=30, top_level=True)
+    jobs = svc.store.jobs.recent(limit=30, top_level=True, include_runs=False)
     wings = []
     for w in svc.store.wings.all():
         wings.append(f'<section class="wing" data-wing="{w["id"]}"><h3>Wing {w["id"]}: {e(w["name"])}</h3>'

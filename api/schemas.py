@@ -164,6 +164,10 @@ class BatchRequest(FlightFields):
     method: Literal["rom-ams"] = "rom-ams"
     basis_id: RowId | None = Field(default=None, description="basis to use (default: the wing's active basis)")
     solver: Literal["dlm", "uvlm", "tsd"] | None = Field(default=None, description=SOLVER_CHOICE)
+    run_id: RowId | None = Field(default=None, description="run (POST /api/v1/runs) whose evaluations these designs "
+                                 "are: each is stored compactly as an evaluation of the run")
+    keep_vg: bool = Field(default=False, description="with run_id: keep the V-g data of every design of this batch "
+                          "(by default only a run's new best designs keep them)")
 
 
 class ActiveBasis(_Strict):
@@ -230,3 +234,75 @@ class JobOut(BaseModel):
     deliveries: int = 0
     worker: str | None = None
     params: dict[str, Any] = Field(default_factory=dict)
+    run_id: int | None = Field(default=None, description="the run a batch belongs to")
+    traceback: str | None = Field(default=None, description="Python traceback of a failure")
+    events: list[list[Any]] = Field(default_factory=list, description="progress history: [ISO time, progress 0..1, "
+                                    "message], the last 50 messages")
+
+
+class RunCreate(_Strict):
+    """A run (study): the evaluations of one optimization or UQ campaign, and its feasibility rule."""
+
+    name: Text = Field(min_length=1, max_length=200, description="a name for people (need not be unique)")
+    wing: int | Text | None = Field(default=None, description="the wing (id or name) whose designs the run evaluates")
+    mu_kg: FiniteFloat | None = Field(default=None, gt=0.0, description="penalty of an infeasible design (kg): "
+                                      "objective = mass + mu_kg (default 10)")
+    mac_threshold: FiniteFloat | None = Field(default=None, gt=0.0, le=1.0,
+                                              description="smallest acceptable mode-fit MAC (default 0.98)")
+    envelope_tol_m: FiniteFloat | None = Field(default=None, ge=0.0, description="a safe altitude up to this much "
+                                               "above the baseline's still passes (m, default 0.01)")
+
+
+class RunEvaluationOut(BaseModel):
+    """One evaluated design of a run (compact)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    id: int
+    job_id: str | None = Field(description="the batch job that evaluated it")
+    x: list[float] = Field(description="design vector, in the wing's variable order")
+    mass_kg: float | None
+    objective: float | None = Field(description="mass + mu_kg when infeasible (kg)")
+    feasible: bool
+    envelope_ok: bool | None
+    min_mac: float | None
+    flutter: list[list[Any]] = Field(description="per Mach: [mach, v_eas_m_s, frequency_hz, flutter_mode, "
+                                                 "safe_altitude_m, benchmark_safe_altitude_m]")
+    error: str | None = Field(description="why the design could not be evaluated")
+    evaluation_id: int | None = Field(description="stored evaluation with the V-g data, when kept")
+
+
+class RunSummary(BaseModel):
+    """A run with its counts, best design so far and status."""
+
+    model_config = ConfigDict(extra="allow", json_schema_extra={"examples": [{
+        "id": 1, "name": "DE cropped delta", "wing_id": 1, "created_at": "2026-12-02T10:00:00Z",
+        "settings": {"mu_kg": 10.0, "mac_threshold": 0.98, "envelope_tol_m": 0.01}, "n_evaluations": 120,
+        "n_feasible": 70, "n_infeasible": 50, "n_failed": 0, "n_with_vg": 4, "payload_bytes": 28200,
+        "bytes_per_design": 235.0, "best": None, "best_objective": 0.1893, "status": "running", "active_jobs": 2}]})
+
+    id: int
+    name: str
+    wing_id: int | None
+    settings: dict[str, Any]
+    created_at: str | None
+    n_evaluations: int
+    n_feasible: int
+    n_infeasible: int
+    n_failed: int
+    n_with_vg: int = Field(description="evaluations whose V-g data are kept")
+    payload_bytes: int = Field(description="stored bytes of the design vectors, flutter rows and error texts")
+    bytes_per_design: float | None
+    best: RunEvaluationOut | None = Field(description="best so far: feasible first, then the lowest objective")
+    best_objective: float | None
+    status: Literal["empty", "running", "idle"] = Field(description="running while a batch is queued or running")
+    active_jobs: int
+
+
+class RunEvaluations(BaseModel):
+    """A page of a run's evaluations (poll with after_id = last_id)."""
+
+    run_id: int
+    flutter_fields: list[str]
+    evaluations: list[RunEvaluationOut]
+    last_id: int

@@ -262,7 +262,7 @@ def optimize(service: InProcessService, generations: int, popsize: int, seed: in
     from client.problem import FlutterProblem
 
     problem = FlutterProblem(service, 0, machs=sorted(service.models.roms), mu=mu,  # type: ignore[arg-type]
-                             keep_history=False, penalty="binary", envelope_tol_m=0.01)
+                             keep_history=False, penalty="binary", envelope_tol_m=0.01, run=False)  # no service
     baseline = problem.baseline()
     last = [-math.inf]
 

@@ -331,11 +331,14 @@ class RomamsClient:
     def evaluate_batch(self, wing: WingRef, designs: Iterable[DesignLike] | np.ndarray, *,
                        machs: Sequence[float] | None = None, basis_id: int | None = None,
                        max_per_request: int = 5000, timeout_s: float | None = None,
-                       progress: bool = False, solver: str | None = None) -> list[dict[str, Any]]:
+                       progress: bool = False, solver: str | None = None, run_id: int | None = None,
+                       keep_vg: bool = False) -> list[dict[str, Any]]:
         """Flutter evaluation of many designs, results in order (one dict per design, as evaluate()).
 
         One request per ``max_per_request`` designs; a large batch the service answers with 202 and a
         job is waited for transparently. A design the structure model rejects gets ``{"error": ...}``.
+        ``run_id`` (:meth:`create_run`) stores every design as an evaluation of that run; ``keep_vg`` keeps the
+        V-g data of each (by default only a run's new best designs keep them).
         """
         payload = _designs_json(designs)
         if max_per_request < 1:
@@ -349,6 +352,9 @@ class RomamsClient:
                 body["basis_id"] = int(basis_id)
             if solver is not None:
                 body["solver"] = str(solver)
+            if run_id is not None:
+                body["run_id"] = int(run_id)
+                body["keep_vg"] = bool(keep_vg)
             r = self.request("POST", f"/wings/{self._ref(wing)}/flutter/batch", json=body)
             out = r.json()
             if r.status_code == 202 or "results" not in out:
@@ -357,6 +363,24 @@ class RomamsClient:
         if len(results) != len(payload):
             raise RomamsError(0, "Bad batch answer", f"expected {len(payload)} results, got {len(results)}")
         return results
+
+    # ---- runs -------------------------------------------------------------------------------------
+    def create_run(self, name: str, wing: WingRef | None = None, **settings: float) -> dict[str, Any]:
+        """Create a run (study) grouping the evaluations of one campaign; ``settings``: mu_kg, mac_threshold,
+        envelope_tol_m (its feasibility rule and penalty). Returns the run with its ``id``."""
+        body: dict[str, Any] = {"name": str(name), **{k: float(v) for k, v in settings.items()}}
+        if wing is not None:
+            body["wing"] = wing
+        return self._json("POST", "/runs", json=body)
+
+    def get_run(self, run_id: int) -> dict[str, Any]:
+        """A run's summary: counts of evaluations (feasible, infeasible, failed), best design so far, status."""
+        return self._json("GET", f"/runs/{int(run_id)}")
+
+    def run_evaluations(self, run_id: int, after_id: int = 0, limit: int = 1000) -> dict[str, Any]:
+        """A run's stored evaluations with id > ``after_id``."""
+        return self._json("GET", f"/runs/{int(run_id)}/evaluations", params={"after_id": int(after_id),
+                                                                               "limit": int(limit)})
 
     def vg_data(self, evaluation_id: int) -> dict[str, Any]:
         """V-g / V-omega data of a stored evaluation: per Mach, speeds (m/s), damping g and omega (rad/s)."""

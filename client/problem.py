@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from client.errors import RomamsError
 from client.http import RomamsClient, WingRef
 
 
@@ -60,12 +61,16 @@ class FlutterProblem:
     paper: C = 1 for any violation) or "graded" (C = 1 + the violations: envelope excess in km, MAC
     deficit / 0.02, number of SDOFF flags; guides a population that has no feasible member yet).
     Call it with X [pop, d] (objective [pop]) or X [d] (a float); :meth:`for_scipy` takes scipy's
-    vectorized layout [d, pop]. Every evaluated batch is appended to ``history``.
+    vectorized layout [d, pop]. Every evaluated batch is appended to ``history``. ``run``: the service stores every
+    evaluated design under a run (True: a new run named after the wing; a string: a new run of that name; False:
+    none); ``run_id`` is its id (the dashboard's run page: /dashboard/runs/{run_id}). ``keep_vg``: keep every
+    design's V-g data (by default only the run's new best designs keep them).
     """
 
     def __init__(self, client: RomamsClient, wing: WingRef, machs: Sequence[float] | None = None, mu: float = 10.0,
                  mac_threshold: float = 0.98, basis_id: int | None = None, keep_history: bool = True,
-                 envelope_tol_m: float = 0.01, penalty: str = "binary") -> None:
+                 envelope_tol_m: float = 0.01, penalty: str = "binary", run: str | bool | None = True,
+                 keep_vg: bool = False) -> None:
         if not (math.isfinite(mu) and mu > 0):
             raise ValueError(f"mu: must be a finite penalty > 0 (kg), got {mu!r}")
         if not 0.0 < mac_threshold <= 1.0:
@@ -97,6 +102,23 @@ class FlutterProblem:
         self.n_calls = 0  # batch requests sent
         self.n_evaluations = 0  # designs evaluated
         self._last: BatchEvaluation | None = None
+        self.keep_vg = bool(keep_vg)
+        self.run_id = self._create_run(run, info)
+
+    def _create_run(self, run: str | bool | None, info: dict[str, Any]) -> int | None:
+        """Id of the run this problem's batches are stored under (a new one unless ``run`` is False/None); None
+        when the service has no runs (an older version answering 404)."""
+        if run is None or run is False:
+            return None
+        name = run if isinstance(run, str) else f"{info.get('name', self.wing_id)}: mass, flutter envelope"
+        try:
+            created = self.client.create_run(name, self.wing_id, mu_kg=self.mu, mac_threshold=self.mac_threshold,
+                                             envelope_tol_m=self.envelope_tol_m)
+        except RomamsError as exc:
+            if exc.status in (404, 405):
+                return None
+            raise
+        return int(created["id"])
 
     @property
     def dim(self) -> int:
@@ -128,7 +150,8 @@ class FlutterProblem:
         pop, _ = self._as_population(x)
         if self._last is not None and self._last.x.shape == pop.shape and np.array_equal(self._last.x, pop):
             return self._last
-        results = self.client.evaluate_batch(self.wing_id, pop, machs=self.machs.tolist(), basis_id=self.basis_id)
+        results = self.client.evaluate_batch(self.wing_id, pop, machs=self.machs.tolist(), basis_id=self.basis_id,
+                                             run_id=self.run_id, keep_vg=self.keep_vg)
         self.n_calls += 1
         self.n_evaluations += pop.shape[0]
         ev = self._collect(pop, results)

@@ -11,11 +11,14 @@ worker died and queued jobs whose message may be lost.
 
 from __future__ import annotations
 
+import os
+import re
 import threading
 import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from romams.persistence import FINAL, DatabaseUnavailable, JobStatus, Store, UnitOfWork
@@ -31,6 +34,24 @@ except ImportError:  # pragma: no cover - the protocol module is part of the cor
 
 
 ProgressFn = Callable[[float, str], None]
+#: the directory holding the project's packages: traceback file names are shown relative to it
+PROJECT_ROOT = str(Path(__file__).resolve().parents[1]) + os.sep
+_FILE = re.compile(r'File "([^"]+)"')
+
+
+def format_traceback(limit: int = 12) -> str:
+    """The traceback of the exception being handled, file names relative to the project (or to site-packages), so
+    that a stored job shows no path of the worker's machine."""
+
+    def short(m: re.Match[str]) -> str:
+        path = m.group(1)
+        if path.startswith(PROJECT_ROOT):
+            path = path[len(PROJECT_ROOT):]
+        elif "site-packages" + os.sep in path:
+            path = path.split("site-packages" + os.sep, 1)[1]
+        return f'File "{path}"'
+
+    return _FILE.sub(short, traceback.format_exc(limit=limit))
 
 
 class JobFailed(Exception):
@@ -189,8 +210,8 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
             reply: Callable[[Outcome], None] | None = None) -> Outcome:
     """Run ``body(job, progress)`` for a job row with guarded start/finish; returns the Outcome.
 
-    A failure stores the error text and, as the job's result, the structured error ``{"error": {status,
-    field, detail, reason}}`` (typed errors keep their field from the core to the HTTP problem).
+    A failure stores the error text, its traceback and, as the job's result, the structured error ``{"error":
+    {status, field, detail, reason}}`` (typed errors keep their field from the core to the HTTP problem).
     ``reply(outcome)`` (a synchronous caller waiting on the result backend) is called as soon as the body has
     succeeded, before the final row update, so the answer does not wait for the bookkeeping.
     """
@@ -214,13 +235,14 @@ def run_job(store: Store, job_id: str, body: Callable[[dict[str, Any], ProgressF
         err = error_dict(exc) if isinstance(exc, ValueError) else {"status": 500, "field": None,
                                                                     "detail": str(exc), "reason": str(exc)}
         store.jobs.finish(job_id, JobStatus.FAILED, error=f"{type(exc).__name__}: {exc}", message="failed",
-                          result={"error": err})
+                          result={"error": err}, traceback=format_traceback())
         return Outcome(JobStatus.FAILED, error=err)
     except Exception as exc:  # noqa: BLE001 - every failure must end in a final job state
         tb = traceback.format_exc(limit=8)
         name = type(exc).__name__
         reason = "time limit exceeded" if name in ("SoftTimeLimitExceeded", "TimeLimitExceeded") else str(exc)
-        store.jobs.finish(job_id, JobStatus.FAILED, error=f"{name}: {reason}\n{tb}", message="failed")
+        store.jobs.finish(job_id, JobStatus.FAILED, error=f"{name}: {reason}\n{tb}", message="failed",
+                          traceback=format_traceback())
         return Outcome(JobStatus.FAILED, error={"status": 500, "field": None, "detail": f"{name}: {reason}",
                                                 "reason": reason})
     outcome = Outcome(JobStatus.SUCCEEDED, result)
@@ -244,7 +266,8 @@ def fanout_outcome(store: Store, parent_id: str) -> list[dict[str, Any]] | None:
     if failed:
         first = failed[0]
         store.jobs.finish(parent_id, JobStatus.FAILED,
-                          error=f"chunk {first['params'].get('index')} failed: {first['error']}")
+                          error=f"chunk {first['params'].get('index')} failed: {first['error']}",
+                          traceback=first.get("traceback"))
         return None
     return kids
 

@@ -14,7 +14,7 @@ from romams.jobs import JobFailed, Outcome, ProgressFn, fanout_outcome, store_an
 from romams.persistence import JobStatus, UnitOfWork
 from romams.services.evaluation import (
     Models,
-    evaluate_designs_summary,
+    evaluate_designs,
     evaluate_structure_summary,
     evaluation_key,
     pms_summary,
@@ -22,6 +22,7 @@ from romams.services.evaluation import (
 )
 from romams.services.flight import FlightCondition
 from romams.services.models import load_models
+from romams.services.runs import compact_row
 from worker.cache import LruCache
 from worker.celery_app import app
 from worker.context import (
@@ -135,28 +136,60 @@ def flutter_pms_job(job_id: str) -> None:
 
 @app.task(name="romams.evaluation.flutter_chunk", acks_late=True, time_limit=settings.evaluation_time_limit_s)
 def flutter_chunk(job_id: str) -> None:
-    """A chunk of a batch: summaries of each design (cached by content hash); the last chunk assembles the batch."""
+    """A chunk of a batch: summaries of each design (cached by content hash); the last chunk assembles the batch.
+    A chunk of a run stores every design as a run evaluation, in the transaction that ends the chunk."""
 
     def body(job: dict[str, Any], progress: ProgressFn) -> dict[str, Any]:
         p = job["params"]
         designs = p["designs"]
         keys = [batch_key(job["wing_id"], p, d) for d in designs]
-        out = [RESULTS.get(h) for h in keys]
+        keep_vg = bool(p.get("keep_vg"))
+        out = [None if keep_vg else RESULTS.get(h) for h in keys]  # V-g data asked for: evaluate every design
+        full: list[Any] = [None] * len(designs)
         todo = [i for i, s in enumerate(out) if s is None]
         if todo:  # the designs not seen before, evaluated together (one batched flutter search per Mach)
             models = models_for(job["wing_id"], p["basis_id"], p["rom_ids"])
-            fresh = evaluate_designs_summary(models, [designs[i] for i in todo], condition=condition_of(p),
-                                             cache=OBJECTS.get_or_load)
-            for i, summary in zip(todo, fresh, strict=True):
+            fresh = evaluate_designs(models, [designs[i] for i in todo], condition=condition_of(p),
+                                     cache=OBJECTS.get_or_load)
+            for i, (summary, result) in zip(todo, fresh, strict=True):
                 RESULTS.put(keys[i], summary)
-                out[i] = summary
+                out[i], full[i] = summary, result
         progress(1.0, f"{len(designs)}/{len(designs)} designs")
-        return {"index": p["index"], "results": out}
+        result = {"index": p["index"], "results": out}
+        if p.get("run_id") is None:
+            return result
+
+        def save(uow: UnitOfWork) -> dict[str, Any]:
+            save_run_chunk(uow, job, keys, out, full)
+            return result
+
+        return store_and_finish(store(), job_id, save)  # stored only while the chunk is not cancelled
 
     run(job_id, body)
     job = store().jobs.get(job_id)
     if job and job["parent_id"] and job["status"] in (JobStatus.SUCCEEDED, JobStatus.FAILED):
         assemble_batch(job["parent_id"])
+
+
+def save_run_chunk(uow: UnitOfWork, job: dict[str, Any], keys: list[str], summaries: list[Any],
+                   full: list[Any]) -> None:
+    """Store a chunk's designs as compact evaluations of its run (one INSERT); V-g data (an evaluation row) only
+    for the designs asked for (``keep_vg``) and for the chunk's best feasible design when it beats the run's best."""
+    p = job["params"]
+    run_id, designs = int(p["run_id"]), p["designs"]
+    rows = [compact_row(d, s, p["run_settings"], job["parent_id"]) for d, s in zip(designs, summaries, strict=True)]
+    keep = {i for i, r in enumerate(full) if r is not None} if p.get("keep_vg") else set()
+    best = uow.runs.best_objective(run_id)
+    cands = [i for i, r in enumerate(rows) if r["feasible"] and full[i] is not None]
+    if cands:
+        i = min(cands, key=lambda k: rows[k]["objective"])
+        if best is None or rows[i]["objective"] < best:
+            keep.add(i)
+    for i in sorted(keep):
+        rows[i]["evaluation_id"] = uow.evaluations.save(
+            job["wing_id"], full[i], summary=summaries[i], request={"design": designs[i], "run_id": run_id},
+            basis_id=p["basis_id"], method="rom-ams", content_hash=keys[i])
+    uow.runs.add_evaluations(run_id, rows)
 
 
 def assemble_batch(parent_id: str) -> None:
@@ -184,4 +217,4 @@ def batch_finalize(job_id: str) -> None:
 
 
 __all__ = ["JobFailed", "Outcome", "assemble_batch", "evaluate", "evaluate_pms", "flutter_chunk", "flutter_job",
-           "flutter_pms_job"]
+           "flutter_pms_job", "save_run_chunk"]

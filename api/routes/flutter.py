@@ -163,12 +163,13 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
     chunk = max(1, min(svc.settings.batch_chunk, math.ceil(n / 4)))
     condition = _condition(body).to_json()
     params = {"basis_id": bid, "rom_ids": rom_ids, "n": n, "method": body.method, "condition": condition}
+    tag = _run_tag(svc, body, wid)
     with svc.store.unit_of_work() as uow:  # parent and chunks committed together, before any message is sent
-        parent = uow.jobs.create("flutter-batch", params, wing_id=wid, stage="fanout",
-                                 message=f"{n} designs in {math.ceil(n / chunk)} chunks")
+        parent = uow.jobs.create("flutter-batch", {**params, **tag}, wing_id=wid, stage="fanout",
+                                 message=f"{n} designs in {math.ceil(n / chunk)} chunks", run_id=body.run_id)
         kids = [uow.jobs.create("flutter-chunk", {"basis_id": bid, "rom_ids": rom_ids, "index": k,
-                                                  "condition": condition, "designs": vectors[i:i + chunk]},
-                                wing_id=wid, parent_id=parent)
+                                                  "condition": condition, "designs": vectors[i:i + chunk], **tag},
+                                wing_id=wid, parent_id=parent, run_id=body.run_id)
                 for k, i in enumerate(range(0, n, chunk))]
     try:
         for k in kids:
@@ -187,7 +188,24 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
         return {"job_id": parent, "status": JobStatus.RUNNING, "n": n}
     if job["status"] != JobStatus.SUCCEEDED:
         raise _failed(parent, _row_outcome(job) or {})
-    return {"results": job["result"]["results"], "job_id": parent}
+    return {"results": job["result"]["results"], "job_id": parent, **({"run_id": body.run_id} if body.run_id else {})}
+
+
+def _run_tag(svc: Service, body: BatchRequest, wid: int) -> dict[str, Any]:
+    """Job parameters of a batch tagged with a run: its id, feasibility settings and keep_vg (404/422 naming
+    run_id for an unknown run or one of another wing); {} without a run. A run without a wing takes this one."""
+    if body.run_id is None:
+        if body.keep_vg:
+            raise invalid("keep_vg", "only with a run_id (the V-g data are kept as evaluations of the run)")
+        return {}
+    run = svc.store.runs.get(body.run_id)
+    if run is None:
+        raise Problem(404, f"run_id: no run {body.run_id}", "run_id")
+    if run["wing_id"] is None:
+        svc.store.runs.set_wing(body.run_id, wid)
+    elif run["wing_id"] != wid:
+        raise invalid("run_id", f"run {body.run_id} evaluates wing {run['wing_id']}, not wing {wid}")
+    return {"run_id": body.run_id, "run_settings": run["settings"], "keep_vg": body.keep_vg}
 
 
 # ---- stored evaluations ---------------------------------------------------------------------------

@@ -1,15 +1,15 @@
-"""Job endpoints: list, get, cancel."""
+"""Job endpoints: list (filters, pages), get, cancel."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter, Depends, Query
+from fastapi import APIRouter, Depends, Query, Response
 
 from api.deps import Service, no_nul, require_key, service
 from api.openapi import FOUND, READ, WRITE, problems
 from api.problems import Problem
-from romams.persistence import JobStatus
+from romams.persistence import ID_MAX, ID_MIN, JobStatus
 
 router = APIRouter(tags=["jobs"], responses=READ)
 
@@ -24,12 +24,23 @@ def job_or_404(svc: Service, job_id: str) -> dict[str, Any]:
 
 
 @router.get("/jobs")
-def list_jobs(status: JobStatus | None = None,
+def list_jobs(response: Response, status: JobStatus | None = None,
               kind: str | None = Query(default=None, max_length=40), limit: int = Query(default=50, ge=1, le=1000),
-              include_children: bool = False, svc: Service = Depends(service)) -> list[dict[str, Any]]:
-    """Newest jobs first (fan-out chunk jobs only with include_children=true)."""
+              include_children: bool = False,
+              wing_id: int | None = Query(default=None, ge=ID_MIN, le=ID_MAX),
+              run_id: int | None = Query(default=None, ge=ID_MIN, le=ID_MAX),
+              include_runs: bool = Query(default=True, description="false: leave out the batches of runs (they are "
+                                         "listed with run_id=...), so optimization generations do not flood the list"),
+              offset: int = Query(default=0, ge=0, le=ID_MAX, description="skip this many of the newest (pages)"),
+              svc: Service = Depends(service)) -> list[dict[str, Any]]:
+    """Newest jobs first (fan-out chunk jobs only with include_children=true); filters by status, kind, wing and
+    run; the X-Total-Count header gives the number of matching jobs."""
     no_nul(kind, "kind")
-    return svc.store.jobs.recent(limit=limit, status=status, kind=kind, top_level=not include_children)
+    filters = {"status": status, "kind": kind, "top_level": not include_children, "wing_id": wing_id,
+               "run_id": run_id, "include_runs": include_runs}
+    with svc.store.unit_of_work() as uow:
+        response.headers["X-Total-Count"] = str(uow.jobs.count(**filters))
+        return uow.jobs.recent(limit=limit, offset=offset, **filters)
 
 
 @router.get("/jobs/{job_id}", responses=FOUND)

@@ -1,4 +1,4 @@
-// romams dashboard poller: refreshes the jobs table from /api/v1/jobs every second (no dependencies).
+// romams dashboard poller: refreshes the runs and jobs tables every second (no dependencies but common.js).
 "use strict";
 (function () {
   const tbody = document.querySelector("#jobs tbody");
@@ -6,17 +6,24 @@
   const finishedSeen = new Set();
   let initialized = false;
 
-  function esc(s) {
-    return String(s === null || s === undefined ? "" : s)
-      .replace(/&/g, "&amp;").replace(/</g, "&lt;").replace(/>/g, "&gt;").replace(/"/g, "&quot;");
-  }
+  const esc = window.romams.esc;
+  const runsBody = document.querySelector("#runs tbody");
 
   function row(j) {
     const pct = Math.round(100 * j.progress);
-    return '<tr data-job="' + esc(j.id) + '"><td class="mono">' + esc(j.id.slice(0, 8)) + "</td><td>" +
+    return '<tr data-job="' + esc(j.id) + '"><td><a class="mono" href="/dashboard/jobs/' + esc(j.id) + '">' +
+      esc(j.id.slice(0, 8)) + "</a></td><td>" +
       esc(j.kind) + '</td><td class="st st-' + esc(j.status) + '">' + esc(j.status) + "</td>" +
       '<td><div class="bar"><div class="fill" data-pct="' + pct + '"></div></div><span class="pct">' + pct +
-      "%</span></td><td>" + esc(j.message) + "</td><td>" + esc(j.created_at) + "</td></tr>";
+      "%</span></td><td>" + esc(j.message) + "</td><td>" + window.romams.timeTag(j.created_at) + "</td></tr>";
+  }
+
+  function runRow(r) {
+    const best = r.best_objective === null ? "&mdash;" : Number(r.best_objective).toPrecision(4);
+    return '<tr data-run="' + r.id + '"><td><a href="/dashboard/runs/' + r.id + '">' + r.id + "</a></td><td>" +
+      '<a href="/dashboard/runs/' + r.id + '">' + esc(r.name) + '</a></td><td class="st st-' + esc(r.status) + '">' +
+      esc(r.status) + "</td><td>" + r.n_evaluations + "</td><td>" + r.n_feasible + "</td><td>" + best + "</td><td>" +
+      window.romams.timeTag(r.created_at) + "</td></tr>";
   }
 
   // bar widths go through the CSSOM: the Content-Security-Policy forbids inline style attributes
@@ -26,10 +33,12 @@
 
   async function poll() {
     try {
-      const r = await fetch("/api/v1/jobs?limit=30", { headers: { Accept: "application/json" } });
+      const r = await fetch("/api/v1/jobs?limit=30&include_runs=false", { headers: { Accept: "application/json" } });
       if (!r.ok) throw new Error("HTTP " + r.status);
       const jobs = await r.json();
       tbody.innerHTML = jobs.map(row).join("");
+      const runs = await fetch("/api/v1/runs?limit=10", { headers: { Accept: "application/json" } });
+      if (runs.ok) runsBody.innerHTML = (await runs.json()).map(runRow).join("") || '<tr><td colspan="7">no run yet</td></tr>';
       sizeBars();
       state.textContent = "updated " + new Date().toLocaleTimeString();
       // a job that finished since the last poll may have produced a basis, ROM or evaluation

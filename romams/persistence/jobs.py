@@ -23,6 +23,7 @@ from romams.persistence.status import ACTIVE, FINAL, JobStatus, values
 
 _ACTIVE = values(ACTIVE)
 _RUNNING = (JobStatus.RUNNING.value,)
+EVENTS_MAX = 50  # progress messages kept per job
 
 
 def job_dict(job: Job) -> dict[str, Any]:
@@ -40,6 +41,9 @@ def job_dict(job: Job) -> dict[str, Any]:
         "parent_id": job.parent_id,
         "deliveries": job.deliveries,
         "worker": job.worker,
+        "run_id": job.run_id,
+        "traceback": job.traceback,
+        "events": job.events or [],
         "created_at": iso(job.created_at),
         "started_at": iso(job.started_at),
         "finished_at": iso(job.finished_at),
@@ -53,13 +57,14 @@ class JobRepository(Repository):
     # ---- create and read ---------------------------------------------------------------------
     def create(self, kind: str, params: Mapping[str, Any], *, wing_id: int | None = None, key: str | None = None,
                parent_id: str | None = None, job_id: str | None = None, message: str = "queued",
-               stage: str | None = None) -> str:
+               stage: str | None = None, run_id: int | None = None) -> str:
         """Insert a queued job row; returns its id (send its message only after the unit of work committed)."""
         jid = job_id or str(uuid.uuid4())
         now = utcnow()
         self._session.add(Job(id=jid, kind=kind, status=JobStatus.QUEUED.value, progress=0.0, message=message,
                               params=serialize.to_jsonable(dict(params)), wing_id=wing_id, key=key,
-                              parent_id=parent_id, deliveries=0, stage=stage, created_at=now, updated_at=now))
+                              parent_id=parent_id, deliveries=0, stage=stage, run_id=run_id, created_at=now,
+                              updated_at=now))
         self._session.flush()
         return jid
 
@@ -84,8 +89,25 @@ class JobRepository(Repository):
         return [job_dict(j) for j in rows]
 
     def recent(self, limit: int = 50, status: JobStatus | str | None = None, kind: str | None = None,
-               parent_id: str | None = None, top_level: bool = False) -> list[dict[str, Any]]:
-        """Newest jobs first, optionally filtered by status, kind or parent."""
+               parent_id: str | None = None, top_level: bool = False, *, wing_id: int | None = None,
+               run_id: int | None = None, include_runs: bool = True, offset: int = 0) -> list[dict[str, Any]]:
+        """Newest jobs first, optionally filtered by status, kind, parent, wing or run (``include_runs=False``:
+        without the batches of runs, unless ``run_id`` is given); ``offset`` skips the newest ones (pagination)."""
+        q = self._filtered(status, kind, parent_id, top_level, wing_id, run_id, include_runs)
+        q = (q.order_by(Job.created_at.desc(), Job.id).offset(int(offset)).limit(int(limit))
+             .execution_options(populate_existing=True))
+        return [job_dict(j) for j in self._session.scalars(q)]
+
+    def count(self, status: JobStatus | str | None = None, kind: str | None = None, top_level: bool = False, *,
+              wing_id: int | None = None, run_id: int | None = None, include_runs: bool = True) -> int:
+        """Number of jobs matching the filters of :meth:`recent`."""
+        q = self._filtered(status, kind, None, top_level, wing_id, run_id, include_runs)
+        return int(self._session.scalar(select(func.count()).select_from(q.subquery())) or 0)
+
+    @staticmethod
+    def _filtered(status: JobStatus | str | None, kind: str | None, parent_id: str | None, top_level: bool,
+                  wing_id: int | None, run_id: int | None, include_runs: bool) -> Any:
+        """SELECT of the jobs matching the filters."""
         q = select(Job)
         if status:
             q = q.where(Job.status == JobStatus(status).value)
@@ -95,8 +117,18 @@ class JobRepository(Repository):
             q = q.where(Job.parent_id == parent_id)
         if top_level:
             q = q.where(Job.parent_id.is_(None))
-        q = q.order_by(Job.created_at.desc()).limit(int(limit)).execution_options(populate_existing=True)
-        return [job_dict(j) for j in self._session.scalars(q)]
+        if wing_id is not None:
+            q = q.where(Job.wing_id == int(wing_id))
+        if run_id is not None:
+            q = q.where(Job.run_id == int(run_id))
+        elif not include_runs:
+            q = q.where(Job.run_id.is_(None))
+        return q
+
+    def active_of_run(self, run_id: int) -> int:
+        """Number of queued or running jobs of a run."""
+        return int(self._session.scalar(select(func.count(Job.id)).where(Job.run_id == int(run_id),
+                                                                          Job.status.in_(_ACTIVE))) or 0)
 
     def find_active(self, key: str) -> dict[str, Any] | None:
         """Newest queued or running job with this dedupe key, or None."""
@@ -122,7 +154,7 @@ class JobRepository(Repository):
             changes["status"] = JobStatus(changes["status"]).value
         if "result" in changes and changes["result"] is not None:
             changes["result"] = serialize.to_jsonable(changes["result"])
-        for text_col in ("message", "error"):  # texts may quote an input; PostgreSQL text cannot hold NUL
+        for text_col in ("message", "error", "traceback"):  # texts may quote an input; PostgreSQL text cannot hold NUL
             if isinstance(changes.get(text_col), str):
                 changes[text_col] = changes[text_col].replace("\x00", "\\0")
         changes["updated_at"] = utcnow()
@@ -168,12 +200,18 @@ class JobRepository(Repository):
         return job_dict(job)
 
     def progress(self, job_id: str, fraction: float, message: str = "") -> bool:
-        """Progress 0..1 with a message, only while running; False if the job is no longer running."""
-        return self.update(job_id, expect=_RUNNING, progress=float(min(max(fraction, 0.0), 1.0)),
-                           message=message[:2000])
+        """Progress 0..1 with a message, only while running; False if the job is no longer running. A new message
+        is appended to the job's progress history (the last ``EVENTS_MAX`` are kept)."""
+        fraction = float(min(max(fraction, 0.0), 1.0))
+        message = message[:2000]
+        events = self._session.scalar(select(Job.events).where(Job.id == job_id)) or []
+        changes: dict[str, Any] = {"progress": fraction, "message": message}
+        if message and (not events or events[-1][2] != message):
+            changes["events"] = [*events[-(EVENTS_MAX - 1):], [iso(utcnow()), round(fraction, 4), message[:200]]]
+        return self.update(job_id, expect=_RUNNING, **changes)
 
     def finish(self, job_id: str, status: JobStatus | str, result: Any = None, error: str | None = None,
-               message: str | None = None) -> bool:
+               message: str | None = None, traceback: str | None = None) -> bool:
         """Final transition from queued/running to succeeded/failed/cancelled (guarded)."""
         if status not in FINAL:
             raise ValueError(f"status: {status!r} is not a final status")
@@ -186,6 +224,8 @@ class JobRepository(Repository):
             changes["result"] = result
         if error is not None:
             changes["error"] = error[:20000]
+        if traceback is not None:
+            changes["traceback"] = traceback[:20000]
         return self.update(job_id, expect=ACTIVE, **changes)
 
     def cancel(self, job_id: str) -> bool:

@@ -13,6 +13,7 @@ from typing import Any
 
 from sqlalchemy import (
     JSON,
+    Boolean,
     DateTime,
     Float,
     ForeignKey,
@@ -117,6 +118,10 @@ class Job(Base):
     deliveries: Mapped[int] = mapped_column(Integer, default=0)
     stage: Mapped[str | None] = mapped_column(String(20), nullable=True)
     worker: Mapped[str | None] = mapped_column(String(200), nullable=True)  # host:pid of the last delivery
+    run_id: Mapped[int | None] = mapped_column(ForeignKey("runs.id", ondelete="SET NULL"), nullable=True,
+                                               index=True)  # the optimization / UQ run a batch belongs to
+    traceback: Mapped[str | None] = mapped_column(Text, nullable=True)  # Python traceback of a failure
+    events: Mapped[list[Any] | None] = mapped_column(JSON, nullable=True)  # [[iso time, progress, message]]
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
     started_at: Mapped[dt.datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
     finished_at: Mapped[dt.datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
@@ -138,6 +143,40 @@ class Evaluation(Base):
     meta: Mapped[dict[str, Any]] = mapped_column(JSON)
     blob: Mapped[bytes] = mapped_column(LargeBinary)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
+class Run(Base):
+    """An optimization or UQ campaign: groups the evaluations of its batches (``settings``: feasibility rule)."""
+
+    __tablename__ = "runs"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(200))
+    wing_id: Mapped[int | None] = mapped_column(ForeignKey("wings.id", ondelete="SET NULL"), nullable=True)
+    settings: Mapped[dict[str, Any]] = mapped_column(JSON)
+    created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+
+
+class RunEvaluation(Base):
+    """One evaluated design of a run, compact: design vector, mass, objective, flags and per-Mach flutter rows
+    (``flutter``: [[mach, flutter EAS m/s, f_f Hz, mode, safe altitude m, benchmark safe altitude m]]). Its V-g data
+    are stored (as an ``evaluations`` row, ``evaluation_id``) only on request or for a new best design."""
+
+    __tablename__ = "run_evaluations"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    run_id: Mapped[int] = mapped_column(ForeignKey("runs.id", ondelete="CASCADE"), index=True)
+    job_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    x: Mapped[list[Any]] = mapped_column(JSON)
+    mass_kg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    objective: Mapped[float | None] = mapped_column(Float, nullable=True)
+    feasible: Mapped[bool] = mapped_column(Boolean)
+    envelope_ok: Mapped[bool | None] = mapped_column(Boolean, nullable=True)
+    min_mac: Mapped[float | None] = mapped_column(Float, nullable=True)
+    flutter: Mapped[list[Any]] = mapped_column(JSON)
+    error: Mapped[str | None] = mapped_column(Text, nullable=True)
+    evaluation_id: Mapped[int | None] = mapped_column(ForeignKey("evaluations.id", ondelete="SET NULL"),
+                                                      nullable=True)
 
 
 class ModesUpload(Base):

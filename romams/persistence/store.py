@@ -20,6 +20,7 @@ from romams.persistence.evaluations import EvaluationRepository
 from romams.persistence.jobs import JobRepository
 from romams.persistence.modes import ModesRepository
 from romams.persistence.roms import RomRepository
+from romams.persistence.runs import RunRepository
 from romams.persistence.unit_of_work import UnitOfWork
 from romams.persistence.wings import WingRepository
 from romams.settings import Settings, get_settings
@@ -95,6 +96,10 @@ class Store:
     @property
     def artifacts(self) -> ArtifactRepository:
         return cast(ArtifactRepository, _OneCall(self, "artifacts"))
+
+    @property
+    def runs(self) -> RunRepository:
+        return cast(RunRepository, _OneCall(self, "runs"))
 
 
 def open_store(settings: Settings | None = None, *, migrate: bool | None = None) -> Store:

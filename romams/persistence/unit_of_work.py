@@ -19,6 +19,7 @@ from romams.persistence.evaluations import EvaluationRepository
 from romams.persistence.jobs import JobRepository
 from romams.persistence.modes import ModesRepository
 from romams.persistence.roms import RomRepository
+from romams.persistence.runs import RunRepository
 from romams.persistence.wings import WingRepository
 
 
@@ -34,6 +35,7 @@ class UnitOfWork:
         self.modes = ModesRepository(session)
         self.jobs = JobRepository(session)
         self.artifacts = ArtifactRepository(session)
+        self.runs = RunRepository(session)
 
     def __enter__(self) -> UnitOfWork:
         return self

@@ -124,23 +124,31 @@ def evaluate_designs_summary(models: Models, designs: Sequence[Any], *,
                              cache: Callable[[tuple[Any, ...], Callable[[], Any]], Any] | None = None,
                              ) -> list[dict[str, Any]]:
     """The use case for a chunk of designs: the JSON summary of each (as ``evaluate_structure_summary``), or
-    {"error": message} for a design that is rejected. Modal analysis per design; the flutter searches of all
-    designs at each Mach run as one batch. Should the batch fail, the designs are evaluated one at a time, so that
-    the error is reported for the design that caused it.
+    {"error": message} for a design that is rejected (:func:`evaluate_designs` without the full results)."""
+    return [s for s, _ in evaluate_designs(models, designs, condition=condition, cache=cache)]
+
+
+def evaluate_designs(models: Models, designs: Sequence[Any], *, condition: FlightCondition = DEFAULT_CONDITION,
+                     cache: Callable[[tuple[Any, ...], Callable[[], Any]], Any] | None = None,
+                     ) -> list[tuple[dict[str, Any], Any]]:
+    """(JSON summary, StructureEvaluation or None) of each design of a chunk; a rejected design gets
+    ({"error": message}, None). Modal analysis per design; the flutter searches of all designs at each Mach run as
+    one batch. Should the batch fail, the designs are evaluated one at a time, so that the error is reported for the
+    design that caused it.
     """
     try:
         base = baseline_evaluation(models, condition, cache)
     except ValueError as exc:  # the benchmark of every design: each reports it
-        return [{"error": str(exc)} for _ in designs]
+        return [({"error": str(exc)}, None) for _ in designs]
     bench = None if base is None else base.envelope
-    out: list[dict[str, Any]] = [{} for _ in designs]
+    out: list[tuple[dict[str, Any], Any]] = [({}, None) for _ in designs]
     modals, idx = [], []
     for i, d in enumerate(designs):
         try:
             modals.append(structure_modal(models, d, None))
             idx.append(i)
         except ValueError as exc:  # a design the structure model rejects: reported per design
-            out[i] = {"error": str(exc)}
+            out[i] = ({"error": str(exc)}, None)
     try:
         results = evaluate_many(models, modals, condition, benchmark=bench)
     except ValueError:
@@ -151,7 +159,7 @@ def evaluate_designs_summary(models: Models, designs: Sequence[Any], *,
             except ValueError as exc:
                 results.append(exc)
     for i, r in zip(idx, results, strict=True):
-        out[i] = {"error": str(r)} if isinstance(r, Exception) else summarize(r, models, condition)
+        out[i] = ({"error": str(r)}, None) if isinstance(r, Exception) else (summarize(r, models, condition), r)
     return out
 
 

@@ -155,6 +155,49 @@ class SentTasks:
         self.sent.append((name, list(args or []), task_id))
 
 
+#: the shared embedded service (sqlite_service): Mach numbers of its ROMs and its fast settings
+SQLITE_MACHS = [0.79, 0.87]
+SQLITE_FAST = {"heartbeat_s": 0.5, "job_stale_s": 8.0, "batch_sync_max": 4, "sync_timeout_s": 120}
+
+
+@pytest.fixture(scope="package")
+def sqlite_service(tmp_path_factory):
+    """The embedded configuration with a real worker subprocess (SQLite database and broker): a cropped-delta wing
+    "cd-test", a basis (6 LHS samples x 3 modes) and dlm ROMs at SQLITE_MACHS. Shared by test_api_sqlite.py and
+    test_runs.py (trained once per test process); a test may replace ``worker`` (it is stopped at the end)."""
+    from types import SimpleNamespace
+
+    from fastapi.testclient import TestClient
+
+    from api.app import create_app
+    from romams.settings import Settings
+
+    data = tmp_path_factory.mktemp("romams-sqlite")
+    settings = Settings(data_dir=data, **SQLITE_FAST)
+    env = service_env(data, **SQLITE_FAST)
+    worker = WorkerProcess(env, data / "worker.log")
+    app = create_app(settings)
+    try:
+        with TestClient(app) as client:
+            ns = SimpleNamespace(client=client, settings=settings, env=env, data=data, worker=worker, app=app)
+            r = client.post("/api/v1/wings", json={"template": "cropped-delta", "name": "cd-test"})
+            assert r.status_code == 201, r.text
+            ns.wing_id = r.json()["id"]
+            r = client.post(f"/api/v1/wings/{ns.wing_id}/basis", json={"samples": 6, "modes": 3, "seed": 1})
+            assert r.status_code == 202, r.text
+            ns.basis_job = wait_job(client, r.json()["job_id"])
+            assert ns.basis_job["status"] == "succeeded", (ns.basis_job, worker.log_tail())
+            r = client.post(f"/api/v1/wings/{ns.wing_id}/roms", json={"machs": SQLITE_MACHS})
+            assert r.status_code == 202, r.text
+            ns.train_request = r.json()
+            ns.train_jobs = [wait_job(client, j) for j in r.json()["job_ids"]]
+            assert all(j["status"] == "succeeded" for j in ns.train_jobs), (ns.train_jobs, worker.log_tail())
+            yield ns
+    finally:
+        ns_worker = worker if "ns" not in locals() else ns.worker
+        ns_worker.stop()
+
+
 #: parameters of a fixture that runs on SQLite and (services) on PostgreSQL; see backend_settings
 BACKENDS = ["sqlite", pytest.param("postgresql", marks=pytest.mark.services)]
 

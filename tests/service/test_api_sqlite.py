@@ -1,8 +1,8 @@
 """End-to-end API tests on the embedded configuration: SQLite database, SQLite broker, real worker subprocess.
 
-One module-scoped service: a cropped-delta wing, a small basis (6 LHS samples x 3 modes) and UVLM ROMs at
-two Mach numbers, trained by a real Celery worker; then flutter evaluations, batches, cancellation,
-worker crashes and bad input for every endpoint.
+One service (conftest.sqlite_service, shared with test_runs.py): a cropped-delta wing, a small basis (6 LHS
+samples x 3 modes) and dlm ROMs at two Mach numbers, trained by a real Celery worker; then flutter evaluations,
+batches, cancellation, worker crashes and bad input for every endpoint.
 """
 
 from __future__ import annotations
@@ -11,48 +11,20 @@ import math
 import os
 import signal
 import time
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from fastapi.testclient import TestClient
 
-from api.app import create_app
-from romams.settings import Settings
+from .conftest import SQLITE_MACHS, WorkerProcess, wait_job
 
-from .conftest import WorkerProcess, service_env, wait_job
-
-MACHS = [0.79, 0.87]
+MACHS = SQLITE_MACHS
 DESIGN = {"x1": 0.3, "x2": 0.4, "x3": 0.7, "x4": 0.05, "x5": 1.0, "x6": 1.0, "x7": 0.8}
-FAST = {"heartbeat_s": 0.5, "job_stale_s": 8.0, "batch_sync_max": 4, "sync_timeout_s": 120}
 
 
 @pytest.fixture(scope="module")
-def svc(tmp_path_factory):
-    data = tmp_path_factory.mktemp("romams-sqlite")
-    settings = Settings(data_dir=data, **FAST)
-    env = service_env(data, **FAST)
-    worker = WorkerProcess(env, data / "worker.log")
-    app = create_app(settings)
-    try:
-        with TestClient(app) as client:
-            ns = SimpleNamespace(client=client, settings=settings, env=env, data=data, worker=worker, app=app)
-            r = client.post("/api/v1/wings", json={"template": "cropped-delta", "name": "cd-test"})
-            assert r.status_code == 201, r.text
-            ns.wing_id = r.json()["id"]
-            r = client.post(f"/api/v1/wings/{ns.wing_id}/basis", json={"samples": 6, "modes": 3, "seed": 1})
-            assert r.status_code == 202, r.text
-            ns.basis_job = wait_job(client, r.json()["job_id"])
-            assert ns.basis_job["status"] == "succeeded", (ns.basis_job, worker.log_tail())
-            r = client.post(f"/api/v1/wings/{ns.wing_id}/roms", json={"machs": MACHS})
-            assert r.status_code == 202, r.text
-            ns.train_request = r.json()
-            ns.train_jobs = [wait_job(client, j) for j in r.json()["job_ids"]]
-            assert all(j["status"] == "succeeded" for j in ns.train_jobs), (ns.train_jobs, worker.log_tail())
-            yield ns
-    finally:
-        ns_worker = worker if "ns" not in locals() else ns.worker
-        ns_worker.stop()
+def svc(sqlite_service):
+    """The embedded service of tests/service (conftest.sqlite_service), shared with test_runs.py."""
+    return sqlite_service
 
 
 def test_basis_job_progress_timestamps_and_mac_table(svc):
