@@ -11,7 +11,7 @@ from fastapi import APIRouter, Depends, Query, Response
 from fastapi.responses import JSONResponse
 
 from api.deps import Service, require_key, service, wing_or_404
-from api.openapi import FOUND, IMAGE, READ, WING, WRITE
+from api.openapi import FOUND, IMAGE, LIMITED, READ, WING, WRITE
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import BatchRequest, FlutterRequest, FlutterSummary
 from romams import jobs
@@ -102,7 +102,7 @@ def _row_outcome(job: dict[str, Any] | None) -> dict[str, Any] | None:
 
 
 @router.post("/wings/{wing}/flutter", dependencies=[Depends(require_key)],
-             responses={**WRITE, **WING,
+             responses={**WRITE, **WING, **LIMITED,
                         200: {"model": FlutterSummary, "description": "the evaluation (v_flutter_m_s is the true "
                                                                       "airspeed; v_eas_m_s the equivalent one)"},
                         202: {"description": "not finished within sync_timeout_s: {job_id, status}"}})
@@ -150,7 +150,7 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
 
 
 @router.post("/wings/{wing}/flutter/batch", dependencies=[Depends(require_key)],
-             responses={**WRITE, **WING, 202: {"description": "a large batch, or one not finished within "
+             responses={**WRITE, **WING, **LIMITED, 202: {"description": "a large batch, or one not finished within "
                                                              "sync_timeout_s: {job_id, status, n}"}})
 def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Batch of designs: results in order (synchronous up to batch_sync_max designs, else 202 with a job)."""
