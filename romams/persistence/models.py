@@ -3,8 +3,8 @@
 Arrays live in compressed NPZ blobs (``blob`` columns, written by :mod:`romams.serialize`) with their
 shapes and dtypes in the JSON ``meta`` column; nothing is pickled. Every ``blob`` column is deferred: a query
 selects it only where it asks for it (``undefer``) or reads the attribute, so listings read metadata columns
-only. Alembic (``migrations/``) owns the schema; ``Base.metadata.create_all`` is used only by tests. Only the repositories of
-:mod:`romams.persistence` use these classes.
+only. Alembic (``migrations/``) owns the schema; ``Base.metadata.create_all`` is used only by tests.
+Only the repositories of :mod:`romams.persistence` use these classes.
 """
 
 from __future__ import annotations
