@@ -121,10 +121,11 @@ def _page(jobs: str, wings: str, evaluations: str, config: dict[str, Any]) -> st
 def dashboard(request: Request, svc: Service = Depends(service)) -> HTMLResponse:
     """The dashboard page (with keys configured: for a read key; without one a 401 page asking for it)."""
     keys = svc.settings.api_keys
-    if keys and key_problem(keys, request.headers.get("authorization", ""), "read") is not None:
+    problem = key_problem(keys, request.headers.get("authorization", ""), "read") if keys else None
+    if problem is not None:  # 401 without a key, 403 with a wrong one: the page without data, asking for one
         return HTMLResponse(_page("", "<p>An API key with the read scope is needed.</p>", "",
-                                  {"auth": True, "authorized": False}),
-                            status_code=401, headers={"WWW-Authenticate": "Bearer", "Cache-Control": "no-store"})
+                                  {"auth": True, "authorized": False}), status_code=problem.status,
+                            headers={**(problem.headers or {}), "Cache-Control": "no-store"})
     jobs = svc.store.jobs.recent(limit=30, top_level=True)
     wings = []
     for w in svc.store.wings.all():

@@ -80,6 +80,8 @@ def test_the_dashboard_needs_a_read_key(keyed):
     r = c.get("/dashboard")
     assert r.status_code == 401 and r.headers["www-authenticate"] == "Bearer"
     assert "secret-wing" not in r.text and 'id="key-form"' in r.text and "&quot;authorized&quot;: false" in r.text
+    r = c.get("/dashboard", headers=bearer("nope"))
+    assert r.status_code == 403 and "secret-wing" not in r.text
     r = c.get("/dashboard", headers=bearer(READ_KEY))
     assert r.status_code == 200 and "secret-wing" in r.text and r.headers["cache-control"] == "no-store"
     assert "img-src 'self' data: blob:" in r.headers["content-security-policy"]
