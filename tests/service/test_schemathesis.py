@@ -10,8 +10,12 @@ schemathesis' own engine (examples, coverage and stateful phases).
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections import Counter
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -72,16 +76,23 @@ def _seed(app, client: TestClient) -> dict[str, int]:
     return {"wing": wid, "basis": bid, "rom": rom_id, "evaluation": eid}
 
 
-@pytest.fixture(scope="module")
-def api(tmp_path_factory):
-    """(schema bound to the app, real path parameters) on a fresh store with real rows behind the ids."""
-    data = tmp_path_factory.mktemp("schemathesis")
+@contextlib.contextmanager
+def seeded(data: Path) -> Iterator[tuple[Any, TestClient, dict[str, object]]]:
+    """(app, client, real path parameters) on a fresh store under ``data`` with real rows behind the ids (also used
+    by benchmarks.reliability)."""
     app = create_app(Settings(data_dir=data, api_keys=[KEY], sync_timeout_s=0.05, max_samples=50), sweeper=False)
     with TestClient(app) as client:
         ids = _seed(app, client)
         job = client.get("/api/v1/jobs", headers={"Authorization": f"Bearer {KEY}"}).json()[0]["id"]
         real = {"wing": str(ids["wing"]), "basis_id": ids["basis"], "rom_id": ids["rom"],
                 "evaluation_id": ids["evaluation"], "job_id": job}
+        yield app, client, real
+
+
+@pytest.fixture(scope="module")
+def api(tmp_path_factory):
+    """(schema bound to the app, real path parameters, app) on a seeded store."""
+    with seeded(tmp_path_factory.mktemp("schemathesis")) as (app, _, real):
         yield schemathesis.openapi.from_asgi("/openapi.json", app), real, app
 
 
@@ -125,6 +136,16 @@ def _failures(operation, strategy: st.SearchStrategy, headers: dict[str, str], e
     return found
 
 
+def fuzz(schema, real: dict[str, object], mode: GenerationMode, examples: int, seen: Counter) -> list[str]:
+    """Failures of the checks over ``examples`` generated cases (with our key) of every operation; ``seen`` counts
+    the (status, content type) pairs of the responses."""
+    failures: list[str] = []
+    for result in schema.get_all_operations():
+        op = result.ok()
+        failures += _failures(op, _cases(op, mode, real), {"Authorization": f"Bearer {KEY}"}, examples, seen)
+    return failures
+
+
 def _negates_the_key(case) -> bool:
     """True when a negative case's mutation is a missing or wrong ``Authorization`` header (the Bearer scheme
     makes it a required header): then our key must not replace it, and the answer is a 401/403."""
@@ -141,11 +162,8 @@ def _content_type(response) -> str:
 @pytest.mark.parametrize("mode", [GenerationMode.POSITIVE, GenerationMode.NEGATIVE])
 def test_every_response_is_documented_and_no_input_gives_a_5xx(api, mode):
     schema, real, _ = api
-    failures: list[str] = []
     seen: Counter = Counter()
-    for result in schema.get_all_operations():
-        op = result.ok()
-        failures += _failures(op, _cases(op, mode, real), {"Authorization": f"Bearer {KEY}"}, EXAMPLES, seen)
+    failures = fuzz(schema, real, mode, EXAMPLES, seen)
     assert not failures, f"{len(failures)} failures:\n" + "\n".join(sorted(set(failures))[:60])
     statuses = {status for status, _ in seen}
     assert not any(s >= 500 for s in statuses), seen
