@@ -91,6 +91,7 @@ def _skipped(phase: str, exc: BaseException) -> dict[str, Any]:
 def faults(plan: Plan, tmp: Path) -> dict[str, Any]:
     """Redis restart without persistence, then a PostgreSQL outage under load; jobs lost and stuck."""
     tf, wait_job = service_tests("test_faults"), service_tests("conftest").wait_job
+    tmp.mkdir(parents=True, exist_ok=True)
     postgres = service_tests("servers").PostgresServer().start()
     try:
         with tf.open_deployment(tmp, postgres, worker_concurrency=2) as d:
@@ -173,9 +174,8 @@ def bad_inputs() -> dict[str, Any]:
     TestClient.request = counted  # type: ignore[method-assign]
     try:
         files = [str(ROOT / "tests" / "service" / f) for f in BAD_INPUT_TESTS]
-        with contextlib.redirect_stdout(sys.stderr):  # stdout carries the JSON object only
-            code = pytest.main([*files, "-q", "-p", "no:cacheprovider", "-m", "not services", "-k",
-                                "not unreachable and not outage"], plugins=[outcomes])
+        code = pytest.main([*files, "-q", "-p", "no:cacheprovider", "-m", "not services", "-k",
+                            "not unreachable and not outage"], plugins=[outcomes])
     finally:
         TestClient.request = original  # type: ignore[method-assign]
     return {"bad_inputs_tried": sum(statuses.values()), "bad_inputs_5xx": sum(n for s, n in statuses.items()
@@ -318,7 +318,8 @@ def main() -> None:
         sys.path.insert(0, str(ROOT))
     t0 = time.monotonic()
     out: dict[str, Any] = {"quick": args.quick}
-    with tempfile.TemporaryDirectory(prefix="romams-reliability-") as tmp:
+    # stdout carries the JSON object only: pytest's and hypothesis' output goes to stderr
+    with tempfile.TemporaryDirectory(prefix="romams-reliability-") as tmp, contextlib.redirect_stdout(sys.stderr):
         out.update(bad_inputs())
         log(f"bad inputs: {out['bad_inputs_tried']} requests, {out['bad_inputs_5xx']} 5xx")
         out.update(fuzz(plan, Path(tmp) / "fuzz"))
