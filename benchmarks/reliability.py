@@ -6,7 +6,8 @@ Built from the service tests' own machinery (tests/service), run here with count
 - faults (distributed; test_faults.open_deployment: a Redis without persistence and a PostgreSQL cluster that this
   run starts on ports of its own, a real worker process, the API with its sweeper): a training runs and basis jobs
   wait in the queue when Redis is killed and restarted empty; then, under the test's request loop (test_faults.Load),
-  PostgreSQL is stopped and started. ``jobs_stuck``: jobs (children included) still queued or running at the end
+  PostgreSQL is stopped and started (``sync_timeout_s`` 5 s, as in the test: an evaluation that the outage holds up
+  answers 202 after 5 s instead of keeping the loop waiting through the outage). ``jobs_stuck``: jobs (children included) still queued or running at the end
   of the settling time; ``jobs_lost``: the others that did not end succeeded. ``broker_recovery_s``: the first
   synchronous evaluation after the Redis restart; ``outage_requests``/``outage_503``/``outage_other_errors``: the
   loop's requests, its 503s (with Retry-After) and anything else of 5xx or a dropped connection.
@@ -96,7 +97,7 @@ def faults(plan: Plan, tmp: Path) -> dict[str, Any]:
     tmp.mkdir(parents=True, exist_ok=True)
     postgres = service_tests("servers").PostgresServer().start()
     try:
-        with tf.open_deployment(tmp, postgres, worker_concurrency=2) as d:
+        with tf.open_deployment(tmp, postgres, worker_concurrency=2, sync_timeout_s=5.0) as d:
             tf.seed_basis(d.store, d.wing_id)
             first = wait_job(d.client, tf.training_running(d, 0.5), 300)
             log(f"faults: first training {first['status']}")
