@@ -7,8 +7,9 @@ Built from the service tests' own machinery (tests/service), run here with count
   run starts on ports of its own, a real worker process, the API with its sweeper): a training runs and basis jobs
   wait in the queue when Redis is killed and restarted empty; then, under the test's request loop (test_faults.Load),
   PostgreSQL is stopped and started (``sync_timeout_s`` 5 s, as in the test: an evaluation that the outage holds up
-  answers 202 after 5 s instead of keeping the loop waiting through the outage). ``jobs_stuck``: jobs (children included) still queued or running at the end
-  of the settling time; ``jobs_lost``: the others that did not end succeeded. ``broker_recovery_s``: the first
+  answers 202 after 5 s instead of keeping the loop waiting through the outage). ``jobs_stuck``: jobs (children
+  included) still queued or running at the end of the settling time; ``jobs_lost``: the others that did not end
+  succeeded. ``broker_recovery_s``: the first
   synchronous evaluation after the Redis restart; ``outage_requests``/``outage_503``/``outage_other_errors``: the
   loop's requests, its 503s (with Retry-After) and anything else of 5xx or a dropped connection.
 - fuzz: test_schemathesis.fuzz over every operation of the OpenAPI document, positive and negative cases, on the
