@@ -60,6 +60,8 @@ class Settings(BaseSettings):
     evaluation_time_limit_s: int = Field(default=600, ge=1, description="hard time limit of an evaluation task")
     cache_size: int = Field(default=32, ge=1, description="bases/ROMs kept in a worker's memory")
     result_cache_size: int = Field(default=20000, ge=0, description="flutter results kept in a worker's memory")
+    result_cache_mb: int = Field(default=64, ge=0, description="MB of flutter results (compact JSON) kept in a "
+                                 "worker process's memory, whichever of this and result_cache_size is reached first")
     upload_max_bytes: int = Field(default=200_000_000, ge=1, description="largest accepted file of a modes upload "
                                   "(POST /modes); the whole multipart body may hold two such files")
     upload_inflated_max_bytes: int = Field(
