@@ -7,7 +7,9 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
+import anyio.to_thread
 from fastapi import Depends, FastAPI
+from fastapi.middleware.cors import CORSMiddleware
 from fastapi.responses import RedirectResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.types import ASGIApp
@@ -21,6 +23,7 @@ from romams.persistence import open_store
 from romams.settings import Settings, get_settings
 
 STATIC_DIR = Path(__file__).resolve().parent / "static"
+CORS_HEADERS = ["Authorization", "Content-Type", "Accept"]
 
 
 class RomamsAPI(FastAPI):
@@ -47,6 +50,8 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        # the threads running synchronous handlers: as many as the database pool holds connections for
+        anyio.to_thread.current_default_thread_limiter().total_tokens = settings.api_threads
         sw = (StaleSweeper(store, celery, settings.job_stale_s, queued_resend_s=settings.job_queued_resend_s).start()
               if sweeper else None)
         try:
@@ -61,6 +66,10 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
     app.state.service = Service(settings=settings, store=store, celery=celery)
     problems.install(app)
     app.add_middleware(RequestGuard, settings=settings)
+    if settings.cors_origins:  # outside the guard: it answers preflights (which carry no key) itself
+        app.add_middleware(CORSMiddleware, allow_origins=settings.cors_origins, allow_headers=CORS_HEADERS,
+                           allow_methods=["GET", "POST", "PUT"], expose_headers=["Retry-After", "Location"],
+                           max_age=600)
 
     from api.dashboard import router as dashboard_router
     from api.dashboard_pages import router as pages_router

@@ -1,8 +1,10 @@
 """Server-rendered dashboard (/dashboard): jobs with live progress, wings, bases, ROMs, evaluations.
 
 Plain HTML built with ``html.escape`` (no template engine, no third-party JS); api/static/dashboard.js
-polls /api/v1/jobs every second and updates the job table in place (the batches of runs are left out: a run is one
-row of the runs table, its page is api.dashboard_pages).
+polls /api/v1/jobs every second and updates the job table in place. With API keys configured the page needs a read
+key like every GET: without one it is a 401 page with no data but the key form, and the script fetches the page
+again with the key (plots as ``data-src``, fetched with the key by the script). The batches of runs are left out:
+a run is one row of the runs table, its page is api.dashboard_pages.
 """
 
 from __future__ import annotations
@@ -12,11 +14,11 @@ import json
 from pathlib import Path
 from typing import Any
 
-from fastapi import APIRouter, Depends
+from fastapi import APIRouter, Depends, Request
 from fastapi.responses import HTMLResponse
 
 from api.dashboard_pages import when
-from api.deps import Service, service
+from api.deps import Service, key_problem, service
 
 router = APIRouter(include_in_schema=False)
 TEMPLATE = (Path(__file__).resolve().parent / "templates" / "dashboard.html").read_text()
@@ -111,17 +113,28 @@ def _evaluations_html(svc: Service) -> str:
     return "".join(parts) or "<p>No evaluation yet.</p>"
 
 
+def _page(jobs: str, wings: str, evaluations: str, config: dict[str, Any]) -> str:
+    """The template filled in."""
+    return (TEMPLATE.replace("{{jobs}}", jobs).replace("{{wings}}", wings).replace("{{evaluations}}", evaluations)
+            .replace("{{config}}", html.escape(json.dumps(config))))
+
+
 @router.get("/dashboard", response_class=HTMLResponse)
-def dashboard(svc: Service = Depends(service)) -> HTMLResponse:
-    """The dashboard page."""
+def dashboard(request: Request, svc: Service = Depends(service)) -> HTMLResponse:
+    """The dashboard page (with keys configured: for a read key; without one a 401 page asking for it)."""
+    keys = svc.settings.api_keys
+    problem = key_problem(keys, request.headers.get("authorization", ""), "read") if keys else None
+    if problem is not None:  # 401 without a key, 403 with a wrong one: the page without data, asking for one
+        return HTMLResponse(_page("", "<p>An API key with the read scope is needed.</p>", "",
+                                  {"auth": True, "authorized": False}), status_code=problem.status,
+                            headers={**(problem.headers or {}), "Cache-Control": "no-store"})
     jobs = svc.store.jobs.recent(limit=30, top_level=True, include_runs=False)
     wings = []
     for w in svc.store.wings.all():
         wings.append(f'<section class="wing" data-wing="{w["id"]}"><h3>Wing {w["id"]}: {e(w["name"])}</h3>'
                      f'<h4>Bases</h4>{_bases_html(svc, w["id"])}<h4>ROMs</h4>{_roms_html(svc, w["id"])}</section>')
-    page = (TEMPLATE
-            .replace("{{jobs}}", "".join(job_row(j) for j in jobs))
-            .replace("{{wings}}", "".join(wings) or "<p>No wing yet.</p>")
-            .replace("{{evaluations}}", _evaluations_html(svc))
-            .replace("{{config}}", html.escape(json.dumps({"auth": bool(svc.settings.api_keys)}))))
-    return HTMLResponse(page)
+    wings_html, evals_html = "".join(wings) or "<p>No wing yet.</p>", _evaluations_html(svc)
+    if keys:  # an <img> cannot send the key: the script fetches these with it
+        wings_html, evals_html = (x.replace(' src="/api/', ' data-src="/api/') for x in (wings_html, evals_html))
+    page = _page("".join(job_row(j) for j in jobs), wings_html, evals_html, {"auth": bool(keys), "authorized": True})
+    return HTMLResponse(page, headers={"Cache-Control": "no-store"} if keys else None)

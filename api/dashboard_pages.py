@@ -13,10 +13,10 @@ import json
 from pathlib import Path
 from typing import Any
 
-from fastapi import APIRouter, Depends
+from fastapi import APIRouter, Depends, Request
 from fastapi.responses import HTMLResponse
 
-from api.deps import Service, service
+from api.deps import Service, key_problem, service
 from romams.persistence import FINAL
 
 router = APIRouter(include_in_schema=False)
@@ -40,8 +40,22 @@ def page(svc: Service, title: str, body: str, scripts: tuple[str, ...] = (), sta
     """A dashboard page: the shared header and navigation, ``body`` and the page's scripts."""
     tags = "".join(f'<script src="/static/{s}"></script>' for s in scripts)
     out = (PAGE.replace("{{title}}", e(title)).replace("{{body}}", body).replace("{{scripts}}", tags)
-           .replace("{{config}}", e(json.dumps({"auth": bool(svc.settings.api_keys)}))))
+           .replace("{{config}}", e(json.dumps({"auth": bool(svc.settings.api_keys), "authorized": True}))))
     return HTMLResponse(out, status_code=status)
+
+
+def locked(request: Request, svc: Service, title: str) -> HTMLResponse | None:
+    """With API keys configured and no read key on the request: the page without data (401/403), which common.js
+    fetches again with the key kept in this tab; None when the request may see the page."""
+    keys = svc.settings.api_keys
+    problem = key_problem(keys, request.headers.get("authorization", ""), "read") if keys else None
+    if problem is None:
+        return None
+    out = (PAGE.replace("{{title}}", e(title)).replace("{{scripts}}", "")
+           .replace("{{body}}", '<p class="error">An API key with the read scope is needed.</p>')
+           .replace("{{config}}", e(json.dumps({"auth": True, "authorized": False}))))
+    return HTMLResponse(out, status_code=problem.status,
+                        headers={**(problem.headers or {}), "Cache-Control": "no-store"})
 
 
 def not_found(svc: Service, what: str) -> HTMLResponse:
@@ -50,8 +64,10 @@ def not_found(svc: Service, what: str) -> HTMLResponse:
 
 
 @router.get("/dashboard/runs", response_class=HTMLResponse)
-def runs_page(svc: Service = Depends(service)) -> HTMLResponse:
+def runs_page(request: Request, svc: Service = Depends(service)) -> HTMLResponse:
     """All runs with their counts and best objective (live)."""
+    if (shut := locked(request, svc, "runs")) is not None:
+        return shut
     body = ('<section><h2>Runs <span id="poll-state" class="muted"></span></h2><table id="runs"><thead><tr>'
             "<th>run</th><th>name</th><th>wing</th><th>status</th><th>designs</th><th>feasible</th>"
             "<th>infeasible</th><th>best objective (kg)</th><th>created</th></tr></thead><tbody></tbody></table>"
@@ -60,8 +76,10 @@ def runs_page(svc: Service = Depends(service)) -> HTMLResponse:
 
 
 @router.get("/dashboard/runs/{run_id}", response_class=HTMLResponse)
-def run_page(run_id: int, svc: Service = Depends(service)) -> HTMLResponse:
+def run_page(request: Request, run_id: int, svc: Service = Depends(service)) -> HTMLResponse:
     """One run: history, design variables, best design's envelope vs the benchmark, designs (live)."""
+    if (shut := locked(request, svc, f"run {run_id}")) is not None:
+        return shut
     run = svc.store.runs.get(run_id)
     if run is None:
         return not_found(svc, f"no run {run_id}")
@@ -86,8 +104,10 @@ def run_page(run_id: int, svc: Service = Depends(service)) -> HTMLResponse:
 
 
 @router.get("/dashboard/jobs", response_class=HTMLResponse)
-def jobs_page(svc: Service = Depends(service)) -> HTMLResponse:
+def jobs_page(request: Request, svc: Service = Depends(service)) -> HTMLResponse:
     """Jobs with filters (status, kind, wing, run) and pages; batches of runs only when filtered by run."""
+    if (shut := locked(request, svc, "jobs")) is not None:
+        return shut
     status = "".join(f'<option value="{s}">{s}</option>' for s in ("queued", "running", "succeeded", "failed",
                                                                    "cancelled"))
     body = ('<section><h2>Jobs <span id="poll-state" class="muted"></span></h2><form id="job-filters" '
@@ -148,8 +168,10 @@ def _job_sections(svc: Service, job: dict[str, Any]) -> str:
 
 
 @router.get("/dashboard/jobs/{job_id}", response_class=HTMLResponse)
-def job_page(job_id: str, svc: Service = Depends(service)) -> HTMLResponse:
+def job_page(request: Request, job_id: str, svc: Service = Depends(service)) -> HTMLResponse:
     """One job: status and progress (live), parameters, progress history, error with traceback, timings, worker."""
+    if (shut := locked(request, svc, f"job {job_id[:8]}")) is not None:
+        return shut
     job = svc.store.jobs.get(job_id) if len(job_id) <= 64 and "\x00" not in job_id else None
     if job is None:
         return not_found(svc, f"no job {job_id!r}")

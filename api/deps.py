@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import hmac
 from dataclasses import dataclass, field
 from typing import Any
 
 from fastapi import Request
 
 from api.problems import Problem, invalid
+from romams.keys import ApiKey, match
 from romams.persistence import Store
 from romams.settings import Settings
 
@@ -30,23 +30,33 @@ def service(request: Request) -> Service:
     return request.app.state.service
 
 
-def key_problem(keys: list[str], authorization: str) -> Problem | None:
-    """The 401/403 problem of an ``Authorization`` header that does not carry one of ``keys`` (None when it does,
-    or when no key is configured). The comparison is constant-time."""
+def key_problem(keys: list[ApiKey], authorization: str, scope: str = "write") -> Problem | None:
+    """The 401/403 problem of an ``Authorization`` header that does not carry a configured key granting ``scope``
+    (None when it does, or when no key is configured). Keys are compared by hash, in constant time."""
     if not keys:
         return None
     scheme, _, token = authorization.partition(" ")
-    if scheme.lower() != "bearer" or not token:
+    if scheme.lower() != "bearer" or not token.strip():
         return Problem(401, "authorization: a Bearer API key is required for this endpoint", "authorization",
                        headers={"WWW-Authenticate": "Bearer"})
-    if not any(hmac.compare_digest(token.strip().encode(), k.encode()) for k in keys):
+    key = match(keys, token.strip())
+    if key is None:
         return Problem(403, "authorization: the API key is not valid", "authorization")
+    if not key.allows(scope):
+        return Problem(403, f"authorization: the API key has the {key.scope} scope; this endpoint needs {scope}",
+                       "authorization")
     return None
 
 
+def key_of(keys: list[ApiKey], authorization: str) -> ApiKey | None:
+    """The configured key an ``Authorization: Bearer`` header carries, or None."""
+    scheme, _, token = authorization.partition(" ")
+    return match(keys, token.strip()) if scheme.lower() == "bearer" and token.strip() else None
+
+
 def require_key(request: Request) -> None:
-    """Mutating endpoints: ``Authorization: Bearer <key>`` must match a configured key (if any are). The request
-    guard (api.middleware) makes the same check before the body is read; this one documents it per route."""
+    """Mutating endpoints: ``Authorization: Bearer <key>`` must carry a write key (if keys are configured). The
+    request guard (api.middleware) makes the same check before the body is read; this one documents it per route."""
     problem = key_problem(request.app.state.service.settings.api_keys, request.headers.get("authorization", ""))
     if problem is not None:
         raise problem

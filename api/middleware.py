@@ -2,24 +2,30 @@
 
 ``SecurityHeaders`` wraps the whole application (also the 500 page of Starlette's error middleware):
 Content-Security-Policy, X-Frame-Options, X-Content-Type-Options and Referrer-Policy on every response.
-``RequestGuard`` runs before a route reads its body: the API key of a mutating request under ``/api/`` (so that a
-large body without a valid key is refused unread), and the body size (413 on the declared Content-Length before
-anything is read, and while a body without one streams in). Both are plain ASGI (no buffering of bodies).
+``RequestGuard`` runs before a route reads its body: the API key of a request under ``/api/`` (a write key for a
+mutating one, a read key for the others, when keys are configured; ``/api/v1/health`` stays open), so that a large
+body without a valid key is refused unread; the evaluation rate limit (429, api.ratelimit); and the body size (413
+on the declared Content-Length before anything is read, and while a body without one streams in). Both are plain
+ASGI (no buffering of bodies).
 """
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
+import anyio.to_thread
 from starlette.datastructures import Headers, MutableHeaders
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from api.problems import problem_response
+from api.problems import Problem, problem_response
+from api.ratelimit import make_limiter, retry_after
 
 #: the dashboard and every API response: own scripts, styles and images only (the dashboard has no inline script
-#: or style; its progress bars are sized through the CSSOM), fetches to this origin, no framing
-CSP = ("default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+#: or style; its progress bars are sized through the CSSOM; with keys configured it fetches its plots with the key
+#: and shows them as blob: URLs), fetches to this origin, no framing
+CSP = ("default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; connect-src 'self'; "
        "base-uri 'none'; form-action 'none'; frame-ancestors 'none'")
 #: the interactive OpenAPI pages (/docs, /redoc): FastAPI serves Swagger UI / ReDoc from the jsDelivr CDN with an
 #: inline start-up script
@@ -33,6 +39,9 @@ MUTATING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 UPLOAD_PATHS = frozenset({"/api/v1/modes"})
 #: paths whose multipart bodies (a Nastran deck upload) get the upload limit; their JSON bodies keep request_max_bytes
 MULTIPART_UPLOAD_PATHS = frozenset({"/api/v1/wings"})
+OPEN_PATHS = frozenset({"/api/v1/health"})
+#: the evaluation endpoints under the rate limit
+RATE_LIMITED = re.compile(r"/api/v1/wings/[^/]+/flutter(/batch)?/?")
 
 
 class SecurityHeaders:
@@ -67,13 +76,15 @@ class BodyTooLarge(HTTPException):
 
 
 class RequestGuard:
-    """API key of mutating requests and request body size, both checked before the body is read.
+    """API key and scope, evaluation rate limit and request body size, all checked before the body is read.
 
-    ``settings``: the service settings (``api_keys``, ``request_max_bytes``, ``upload_max_bytes``)."""
+    ``settings``: the service settings (``api_keys``, ``rate_limit_*``, ``request_max_bytes``, ``upload_max_bytes``).
+    """
 
     def __init__(self, app: ASGIApp, settings: Any) -> None:
         self.app = app
         self.settings = settings
+        self.limiter = make_limiter(settings)
 
     def limit(self, path: str, content_type: str = "") -> int:
         """Largest body of a request to ``path`` (the modes upload: two files and the multipart framing)."""
@@ -82,20 +93,46 @@ class RequestGuard:
             return 2 * int(self.settings.upload_max_bytes) + 1024 * 1024
         return int(self.settings.request_max_bytes)
 
+    def key_check(self, method: str, path: str, headers: Headers) -> Problem | None:
+        """401/403 of a request under ``/api/`` without a key of the scope it needs (write to mutate, else read)."""
+        from api.deps import key_problem
+
+        keys = self.settings.api_keys
+        if not keys or not path.startswith("/api/") or path in OPEN_PATHS:
+            return None
+        return key_problem(keys, headers.get("authorization", ""), "write" if method in MUTATING else "read")
+
+    async def rate_check(self, scope: Scope, method: str, path: str, headers: Headers) -> Problem | None:
+        """429 of an evaluation request whose bucket (its key, or its client address without keys) is empty."""
+        if self.limiter is None or method != "POST" or not RATE_LIMITED.fullmatch(path):
+            return None
+        from api.deps import key_of
+
+        key = key_of(self.settings.api_keys, headers.get("authorization", "")) if self.settings.api_keys else None
+        client = scope.get("client") or ("unknown", 0)
+        bucket = f"key:{key.id}" if key is not None else f"ip:{client[0]}"
+        if self.limiter.backend == "redis":
+            wait = await anyio.to_thread.run_sync(self.limiter.take, bucket)
+        else:
+            wait = self.limiter.take(bucket)
+        if wait <= 0:
+            return None
+        return Problem(429, f"rate limit: at most {self.settings.rate_limit_per_s:g} evaluation requests per second "
+                       f"(burst {self.settings.rate_burst}) per API key; retry after {wait:.2f} s", None,
+                       headers={"Retry-After": retry_after(wait)})
+
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        from api.deps import key_problem
-
         path = str(scope.get("path", ""))
+        method = str(scope.get("method", ""))
         headers = Headers(scope=scope)
-        if scope.get("method") in MUTATING and path.startswith("/api/") and self.settings.api_keys:
-            problem = key_problem(self.settings.api_keys, headers.get("authorization", ""))
-            if problem is not None:
-                await problem_response(problem.status, problem.detail, title=problem.title, field=problem.field,
-                                       instance=path, headers=problem.headers)(scope, receive, send)
-                return
+        problem = self.key_check(method, path, headers) or await self.rate_check(scope, method, path, headers)
+        if problem is not None:
+            await problem_response(problem.status, problem.detail, title=problem.title, field=problem.field,
+                                   instance=path, headers=problem.headers)(scope, receive, send)
+            return
         limit = self.limit(path, headers.get("content-type", ""))
         declared = headers.get("content-length")
         if declared is not None:

@@ -22,15 +22,16 @@ WWW_AUTHENTICATE = {"WWW-Authenticate": {"description": "Bearer", "schema": {"ty
 DESCRIPTIONS = {
     400: "malformed request: a body that cannot be parsed, or a Content-Length that is not a byte count",
     401: "no Bearer API key (keys are configured): WWW-Authenticate: Bearer",
-    403: "the API key is not valid",
+    403: "the API key is not valid, or its scope is read and the endpoint mutates",
     404: "no such row: `field` names the id",
     409: "conflict with the stored state (a name taken, a job already final, a stored definition unreadable)",
     413: "request body, upload or batch larger than its limit",
     501: "the server lacks an optional part (pyNastran for Nastran files)",
     422: "invalid input: `field` names the first offending field, `errors` lists every one",
+    429: "rate limit of the evaluation endpoints reached (per API key): retry after Retry-After seconds",
     503: "the database or the broker is unavailable: retry after Retry-After seconds",
 }
-HEADERS = {401: WWW_AUTHENTICATE, 503: RETRY_AFTER}
+HEADERS = {401: WWW_AUTHENTICATE, 429: RETRY_AFTER, 503: RETRY_AFTER}
 
 
 class FieldError(BaseModel):
@@ -64,10 +65,14 @@ def problems(*statuses: int) -> dict[int | str, dict[str, Any]]:
     return out
 
 
-#: every API route: invalid parameters, database or broker down
-READ = problems(422, 503)
-#: mutating routes: the key (checked before the body is read), the body size, a body that cannot be parsed
+#: every API route but /health: the key (a read key at least, when keys are configured), invalid parameters,
+#: database or broker down
+READ = problems(401, 403, 422, 503)
+#: mutating routes: the key (a write key, checked before the body is read), the body size, a body that cannot be
+#: parsed
 WRITE = problems(400, 401, 403, 413)
+#: the evaluation routes: their rate limit
+LIMITED = problems(429)
 #: routes with a row id in their path
 FOUND = problems(404)
 #: routes of one wing (by id or name): not found, or its stored definition cannot be read
@@ -80,7 +85,8 @@ IMAGE: dict[int | str, dict[str, Any]] = {200: {"description": "the plot (PNG or
 
 
 BEARER = {"type": "http", "scheme": "bearer",
-          "description": "an API key of ROMAMS_API_KEYS (mutating endpoints, when keys are configured)"}
+          "description": "an API key of ROMAMS_API_KEYS (when keys are configured: a read key for GETs, a write key "
+                         "for the mutating endpoints)"}
 
 
 def finish(schema: dict[str, Any]) -> dict[str, Any]:

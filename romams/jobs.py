@@ -21,6 +21,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import anyio
+import anyio.to_thread
+
 from romams.persistence import FINAL, DatabaseUnavailable, JobStatus, Store, UnitOfWork
 from romams.services.errors import error_dict
 from romams.services.queue import FINALIZE_FOR_KIND, TASK_FOR_KIND
@@ -97,17 +100,13 @@ def submit(store: Store, celery: Any, kind: str, params: dict[str, Any], *, wing
     return job_id
 
 
-def wait_result(celery: Any, job_id: str, timeout_s: float, poll_s: float = 0.005) -> dict[str, Any] | None:
-    """The outcome dict a task returned through the result backend (None on timeout); nothing polls the jobs table.
-
-    With Redis the reply is pushed (publish/subscribe) and expires by itself (``result_expires_s``); the embedded
-    SQLite backend is read every ``poll_s`` and the result deleted once read.
-    """
+def _collect(celery: Any, res: Any, timeout_s: float) -> dict[str, Any] | None:
+    """The outcome dict of ``res`` (waiting at most ``timeout_s``; None on timeout); a database backend's copy is
+    dropped once read (the Redis one expires by itself, ``result_expires_s``)."""
     from celery.exceptions import TimeoutError as CeleryTimeout
 
-    res = celery.AsyncResult(job_id)
     try:
-        out = res.get(timeout=timeout_s, interval=poll_s, propagate=False, disable_sync_subtasks=False)
+        out = res.get(timeout=timeout_s, interval=0.005, propagate=False, disable_sync_subtasks=False)
     except CeleryTimeout:
         return None
     if not str(celery.conf.result_backend).startswith(("redis", "rediss")):
@@ -118,17 +117,35 @@ def wait_result(celery: Any, job_id: str, timeout_s: float, poll_s: float = 0.00
     return out if isinstance(out, dict) else None
 
 
-def wait_for(store: Store, job_id: str, timeout_s: float, poll_s: float = 0.01) -> dict[str, Any] | None:
-    """Poll a job row until it is final; the final job dict, or None on timeout."""
+async def wait_result_async(celery: Any, job_id: str, timeout_s: float, poll_s: float = 0.005,
+                            max_poll_s: float = 0.025) -> dict[str, Any] | None:
+    """The outcome dict a task returned through the result backend (None after ``timeout_s``); nothing polls the
+    jobs table, and no thread is held while it waits: the backend's state is read on a worker thread (one short
+    read), every ``poll_s`` growing to ``max_poll_s`` seconds, and the event loop sleeps in between."""
+    res = celery.AsyncResult(job_id)
+    deadline = time.monotonic() + timeout_s
+    delay = poll_s
+    while not await anyio.to_thread.run_sync(res.ready):
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return None
+        await anyio.sleep(min(delay, left))
+        delay = min(delay * 1.5, max_poll_s)
+    return await anyio.to_thread.run_sync(_collect, celery, res, 5.0)
+
+
+async def wait_for_async(store: Store, job_id: str, timeout_s: float, poll_s: float = 0.01) -> dict[str, Any] | None:
+    """Poll a job row until it is final: the final job dict, or None after ``timeout_s``; no thread is held
+    between the reads of the row."""
     deadline = time.monotonic() + timeout_s
     delay = poll_s
     while True:
-        status = store.jobs.status(job_id)
+        status = await anyio.to_thread.run_sync(store.jobs.status, job_id)
         if status in FINAL:
-            return store.jobs.get(job_id)
+            return await anyio.to_thread.run_sync(store.jobs.get, job_id)
         if status is None or time.monotonic() > deadline:
             return None
-        time.sleep(delay)
+        await anyio.sleep(delay)
         delay = min(delay * 1.5, 0.05)
 
 

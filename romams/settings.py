@@ -12,14 +12,16 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+from romams.keys import ApiKey, parse_keys
 
 
 class Settings(BaseSettings):
     """All service knobs; every field can be set as ``ROMAMS_<FIELD>`` in the environment."""
 
-    model_config = SettingsConfigDict(env_prefix="ROMAMS_", extra="ignore")
+    model_config = SettingsConfigDict(env_prefix="ROMAMS_", extra="ignore", hide_input_in_errors=True)
 
     data_dir: Path = Field(default=Path(".romams"), description="directory for the SQLite db, broker and caches")
     database_url: str = Field(default="", description="SQLAlchemy URL; default sqlite:///<data_dir>/romams.db")
@@ -28,9 +30,24 @@ class Settings(BaseSettings):
         default="", description="Celery result backend of synchronous evaluations; default: the Redis broker, "
         "else db+sqlite:///<data_dir>/results.db")
     result_expires_s: int = Field(default=600, ge=60, description="how long a task result is kept by the backend")
-    api_keys: Annotated[list[str], NoDecode] = Field(
-        default_factory=list, description="bearer keys for mutating endpoints (comma separated); empty = no auth"
-    )
+    api_keys: Annotated[list[ApiKey], NoDecode] = Field(
+        default_factory=list, description="API keys, comma separated: sha256:<hex>[:read|:write] (`romams keys "
+        "hash`), or plain keys (hashed when loaded); a read key opens the dashboard and every GET, a write key "
+        "also the mutating endpoints; empty = no auth")
+    api_keys_file: Path | None = Field(default=None, description="file of more API key entries, one a line "
+                                       "(# comments); read once when the settings load")
+    rate_limit_per_s: float = Field(default=0.0, ge=0, description="evaluation requests (POST .../flutter and "
+                                    ".../flutter/batch) per second and key (or client address without keys); "
+                                    "0 = no limit")
+    rate_limit_burst: int = Field(default=0, ge=0, description="token bucket size of the rate limit (0 = "
+                                  "max(1, rate_limit_per_s))")
+    cors_origins: Annotated[list[str], NoDecode] = Field(
+        default_factory=list, description="origins allowed to call the API from a browser (comma separated); "
+        "empty = no CORS headers (browsers refuse cross-origin calls)")
+    api_threads: int = Field(default=40, ge=1, description="threads of an API process for its synchronous "
+                             "handlers (the concurrency the database pool is sized to)")
+    db_pool_size: int = Field(default=0, ge=0, description="database connections kept per process (server "
+                              "databases); 0 = api_threads + 4 (the handlers, the sweeper and the heartbeat)")
     batch_sync_max: int = Field(default=64, ge=1, description="largest flutter batch answered synchronously")
     batch_max: int = Field(default=20000, ge=1, description="largest flutter batch accepted at all")
     batch_chunk: int = Field(default=64, ge=1, description="designs per evaluation task of a batch job")
@@ -43,6 +60,8 @@ class Settings(BaseSettings):
     evaluation_time_limit_s: int = Field(default=600, ge=1, description="hard time limit of an evaluation task")
     cache_size: int = Field(default=32, ge=1, description="bases/ROMs kept in a worker's memory")
     result_cache_size: int = Field(default=20000, ge=0, description="flutter results kept in a worker's memory")
+    result_cache_mb: int = Field(default=64, ge=0, description="MB of flutter results (compact JSON) kept in a "
+                                 "worker process's memory, whichever of this and result_cache_size is reached first")
     upload_max_bytes: int = Field(default=200_000_000, ge=1, description="largest accepted file of a modes upload "
                                   "(POST /modes); the whole multipart body may hold two such files")
     upload_inflated_max_bytes: int = Field(
@@ -69,11 +88,35 @@ class Settings(BaseSettings):
 
     @field_validator("api_keys", mode="before")
     @classmethod
-    def _split_keys(cls, v: object) -> object:
+    def _hash_keys(cls, v: object) -> object:
+        """Accept a comma-separated string or a list of entries; plain keys are hashed here (only hashes stay)."""
+        return parse_keys(v)
+
+    @field_validator("cors_origins", mode="before")
+    @classmethod
+    def _split_origins(cls, v: object) -> object:
         """Accept a comma-separated string or a list."""
         if isinstance(v, str):
-            return [k.strip() for k in v.split(",") if k.strip()]
+            return [o.strip().rstrip("/") for o in v.split(",") if o.strip()]
         return v
+
+    @model_validator(mode="after")
+    def _read_keys_file(self) -> Settings:
+        """Append the entries of ``api_keys_file`` to ``api_keys``."""
+        if self.api_keys_file is not None:
+            extra = parse_keys(self.api_keys_file.read_text())
+            self.api_keys = [*self.api_keys, *extra]  # type: ignore[list-item]
+        return self
+
+    @property
+    def pool_size(self) -> int:
+        """Database connections kept per process (``db_pool_size``, or the API's threads plus 4)."""
+        return self.db_pool_size or self.api_threads + 4
+
+    @property
+    def rate_burst(self) -> int:
+        """Token bucket size of the evaluation rate limit."""
+        return self.rate_limit_burst or max(1, round(self.rate_limit_per_s))
 
     @property
     def db_url(self) -> str:

@@ -57,7 +57,10 @@ def test_client_imports_only_httpx_tqdm_numpy() -> None:
 def test_health_and_api_key(service, client) -> None:
     assert client.health()["status"] == "ok"
     with RomamsClient(service.url, retries=0) as anonymous:
-        assert isinstance(anonymous.list_wings(), list)  # reading needs no key
+        assert anonymous.health()["status"] == "ok"  # the health check is open
+        with pytest.raises(RomamsError) as ei:
+            anonymous.list_wings()  # with keys configured, reading needs a (read) key too
+        assert (ei.value.status, ei.value.field) == (401, "authorization")
         with pytest.raises(RomamsError) as ei:
             anonymous.create_wing("cropped-delta", "no-key")
         assert (ei.value.status, ei.value.field) == (401, "authorization")

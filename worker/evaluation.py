@@ -23,7 +23,7 @@ from romams.services.evaluation import (
 from romams.services.flight import FlightCondition
 from romams.services.models import load_models
 from romams.services.runs import compact_row
-from worker.cache import LruCache
+from worker.cache import ResultCache
 from worker.celery_app import app
 from worker.context import (
     OBJECTS,
@@ -37,7 +37,8 @@ from worker.context import (
     train_model,
 )
 
-RESULTS = LruCache(settings.result_cache_size)  # content hash -> summary dict of one design
+#: content hash -> summary of one design (compact JSON, bounded by entries and by result_cache_mb)
+RESULTS = ResultCache(settings.result_cache_size, settings.result_cache_mb << 20)
 
 
 def models_for(wing_id: int, basis_id: int, rom_ids: list[list[float]]) -> Models:
@@ -80,11 +81,11 @@ def flutter_job(self: Any, job_id: str) -> dict[str, Any]:
         if p.get("modes_id") is None:  # same key as the batch chunks: a design seen before is answered from memory
             h = batch_key(job["wing_id"], p, p.get("design"))
             if not keep and (hit := RESULTS.get(h)) is not None and "error" not in hit:
-                return dict(hit)
+                return hit
         summary, result = evaluate(job["wing_id"], p["basis_id"], p["rom_ids"], p.get("design"), p.get("modes_id"),
                                    condition_of(p))
         if h is not None:
-            RESULTS.put(h, dict(summary))
+            RESULTS.put(h, summary)
         if keep:
             summary["evaluation_id"] = store().evaluations.save(
                 job["wing_id"], result, summary=summary, request=p.get("request") or {}, basis_id=p["basis_id"],

@@ -8,9 +8,10 @@ from typing import Any, Literal
 import numpy as np
 from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import JSONResponse
+from starlette.concurrency import run_in_threadpool
 
 from api.deps import Service, require_key, service, wing_or_404
-from api.openapi import FOUND, IMAGE, READ, WING, WRITE
+from api.openapi import FOUND, IMAGE, LIMITED, READ, WING, WRITE
 from api.plot_cache import DPI, MEDIA_TYPES, NOT_MODIFIED, plot_response
 from api.problems import Problem, from_value_error, invalid
 from api.schemas import BatchRequest, FlutterRequest, FlutterSummary
@@ -78,11 +79,6 @@ def _inline_modes(svc: Service, wing: Any, modes: dict[str, Any]) -> int:
     return svc.store.modes.save(m, "json", summary=summary)
 
 
-def _wait(svc: Service, job_id: str, timeout_s: float) -> dict[str, Any] | None:
-    """Wait for a batch job's final state (None on timeout)."""
-    return jobs.wait_for(svc.store, job_id, timeout_s)
-
-
 def _failed(job_id: str, outcome: dict[str, Any]) -> ServiceError:
     """The typed error of a failed job outcome (stored structured by the worker; else a 500 with its text)."""
     err = outcome.get("error") or {"status": 500, "field": None,
@@ -101,13 +97,9 @@ def _row_outcome(job: dict[str, Any] | None) -> dict[str, Any] | None:
             "text": job.get("error") or job["status"]}
 
 
-@router.post("/wings/{wing}/flutter", dependencies=[Depends(require_key)],
-             responses={**WRITE, **WING,
-                        200: {"model": FlutterSummary, "description": "the evaluation (v_flutter_m_s is the true "
-                                                                      "airspeed; v_eas_m_s the equivalent one)"},
-                        202: {"description": "not finished within sync_timeout_s: {job_id, status}"}})
-def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = Depends(service)) -> Any:
-    """Flutter evaluation of one structure at the trained (or given) Mach numbers; synchronous."""
+def _submit(svc: Service, wing: str, body: FlutterRequest) -> dict[str, Any] | tuple[str, str]:
+    """Validate a flutter request and submit its job: the stored answer of the same request (a dict), or
+    (job kind, job id)."""
     wid, w = wing_or_404(svc, wing)
     bid, rom_ids = _basis_and_roms(svc, wid, body.basis_id, body.machs, solver=body.solver)
     design = None
@@ -131,14 +123,27 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
     params = {"basis_id": bid, "rom_ids": rom_ids, "design": design, "modes_id": modes_id, "store": body.store,
               "request": request, "method": body.method, "content_hash": h, "condition": condition}
     if body.method == "rom-pms":  # trains one ROM per Mach on the structure's own modes: a training job
-        job_id = jobs.submit(svc.store, svc.celery, "flutter-pms", params, wing_id=wid)
-        response.status_code = 202
-        response.headers["Location"] = f"/api/v1/jobs/{job_id}"
-        return {"job_id": job_id, "status": JobStatus.QUEUED}
-    job_id = jobs.submit(svc.store, svc.celery, "flutter", params, wing_id=wid)
-    out = jobs.wait_result(svc.celery, job_id, svc.settings.sync_timeout_s)
-    if out is not None and out.get("status") is None:  # not run by this delivery (e.g. redelivered): the row knows
-        out = _row_outcome(svc.store.jobs.get(job_id))
+        return "flutter-pms", jobs.submit(svc.store, svc.celery, "flutter-pms", params, wing_id=wid)
+    return "flutter", jobs.submit(svc.store, svc.celery, "flutter", params, wing_id=wid)
+
+
+@router.post("/wings/{wing}/flutter", dependencies=[Depends(require_key)],
+             responses={**WRITE, **WING, **LIMITED,
+                        200: {"model": FlutterSummary, "description": "the evaluation (v_flutter_m_s is the true "
+                                                                      "airspeed; v_eas_m_s the equivalent one)"},
+                        202: {"description": "not finished within sync_timeout_s: {job_id, status}"}})
+async def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = Depends(service)) -> Any:
+    """Flutter evaluation of one structure at the trained (or given) Mach numbers; synchronous (up to
+    sync_timeout_s; the wait holds no server thread)."""
+    submitted = await run_in_threadpool(_submit, svc, wing, body)
+    if isinstance(submitted, dict):
+        return submitted
+    kind, job_id = submitted
+    out = None
+    if kind == "flutter":  # rom-pms trains ROMs: always a job
+        out = await jobs.wait_result_async(svc.celery, job_id, svc.settings.sync_timeout_s)
+        if out is not None and out.get("status") is None:  # not run by this delivery (e.g. redelivered)
+            out = _row_outcome(await run_in_threadpool(svc.store.jobs.get, job_id))
     if out is None:
         response.status_code = 202
         response.headers["Location"] = f"/api/v1/jobs/{job_id}"
@@ -150,10 +155,29 @@ def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = 
 
 
 @router.post("/wings/{wing}/flutter/batch", dependencies=[Depends(require_key)],
-             responses={**WRITE, **WING, 202: {"description": "a large batch, or one not finished within "
+             responses={**WRITE, **WING, **LIMITED, 202: {"description": "a large batch, or one not finished within "
                                                              "sync_timeout_s: {job_id, status, n}"}})
-def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
-    """Batch of designs: results in order (synchronous up to batch_sync_max designs, else 202 with a job)."""
+async def flutter_batch(wing: str, body: BatchRequest, response: Response,
+                        svc: Service = Depends(service)) -> dict[str, Any]:
+    """Batch of designs: results in order (synchronous up to batch_sync_max designs, else 202 with a job; the wait
+    holds no server thread)."""
+    parent, n = await run_in_threadpool(_submit_batch, svc, wing, body)
+    if n > svc.settings.batch_sync_max:
+        response.status_code = 202
+        response.headers["Location"] = f"/api/v1/jobs/{parent}"
+        return {"job_id": parent, "status": JobStatus.QUEUED, "n": n}
+    job = await jobs.wait_for_async(svc.store, parent, svc.settings.sync_timeout_s)
+    if job is None:
+        response.status_code = 202
+        response.headers["Location"] = f"/api/v1/jobs/{parent}"
+        return {"job_id": parent, "status": JobStatus.RUNNING, "n": n}
+    if job["status"] != JobStatus.SUCCEEDED:
+        raise _failed(parent, _row_outcome(job) or {})
+    return {"results": job["result"]["results"], "job_id": parent, **({"run_id": body.run_id} if body.run_id else {})}
+
+
+def _submit_batch(svc: Service, wing: str, body: BatchRequest) -> tuple[str, int]:
+    """Validate a batch and submit its parent and chunk jobs: (parent job id, number of designs)."""
     wid, w = wing_or_404(svc, wing)
     n = len(body.designs)
     if n > svc.settings.batch_max:
@@ -177,18 +201,7 @@ def flutter_batch(wing: str, body: BatchRequest, response: Response, svc: Servic
     except jobs.BrokerUnavailable:
         svc.store.jobs.cancel(parent)
         raise
-    if n > svc.settings.batch_sync_max:
-        response.status_code = 202
-        response.headers["Location"] = f"/api/v1/jobs/{parent}"
-        return {"job_id": parent, "status": JobStatus.QUEUED, "n": n}
-    job = _wait(svc, parent, svc.settings.sync_timeout_s)
-    if job is None:
-        response.status_code = 202
-        response.headers["Location"] = f"/api/v1/jobs/{parent}"
-        return {"job_id": parent, "status": JobStatus.RUNNING, "n": n}
-    if job["status"] != JobStatus.SUCCEEDED:
-        raise _failed(parent, _row_outcome(job) or {})
-    return {"results": job["result"]["results"], "job_id": parent, **({"run_id": body.run_id} if body.run_id else {})}
+    return parent, n
 
 
 def _run_tag(svc: Service, body: BatchRequest, wid: int) -> dict[str, Any]:

@@ -23,10 +23,12 @@ def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
     cur.close()
 
 
-def get_engine(url: str, connect_timeout_s: float | None = None) -> Engine:
+def get_engine(url: str, connect_timeout_s: float | None = None, pool_size: int = 44) -> Engine:
     """Process-wide engine for ``url`` (created once). Pooled server connections are pinged before use
     (``pool_pre_ping``), so a connection the server dropped (restart, outage) is replaced instead of failing the
-    request; PostgreSQL connects with ``connect_timeout_s`` (an unreachable server fails fast)."""
+    request; PostgreSQL connects with ``connect_timeout_s`` (an unreachable server fails fast). A server database
+    keeps up to ``pool_size`` connections (opened on demand; the settings size it to the API's threads), plus
+    4 overflow ones."""
     with _LOCK:
         eng = _ENGINES.get(url)
         if eng is None:
@@ -36,7 +38,7 @@ def get_engine(url: str, connect_timeout_s: float | None = None) -> Engine:
             else:
                 args = {"connect_timeout": max(1, int(connect_timeout_s))} if connect_timeout_s and url.startswith(
                     "postgresql") else {}
-                eng = create_engine(url, pool_pre_ping=True, pool_size=5, max_overflow=10, connect_args=args)
+                eng = create_engine(url, pool_pre_ping=True, pool_size=pool_size, max_overflow=4, connect_args=args)
             _ENGINES[url] = eng
         return eng
 

@@ -1,9 +1,10 @@
 """SQLAlchemy 2 typed ORM of the service: wings, bases, roms, jobs, evaluations, modes uploads.
 
 Arrays live in compressed NPZ blobs (``blob`` columns, written by :mod:`romams.serialize`) with their
-shapes and dtypes in the JSON ``meta`` column; nothing is pickled. Alembic (``migrations/``) owns the
-schema; ``Base.metadata.create_all`` is used only by tests. Only the repositories of
-:mod:`romams.persistence` use these classes.
+shapes and dtypes in the JSON ``meta`` column; nothing is pickled. Every ``blob`` column is deferred: a query
+selects it only where it asks for it (``undefer``) or reads the attribute, so listings read metadata columns
+only. Alembic (``migrations/``) owns the schema; ``Base.metadata.create_all`` is used only by tests.
+Only the repositories of :mod:`romams.persistence` use these classes.
 """
 
 from __future__ import annotations
@@ -73,7 +74,7 @@ class BasisRow(Base):
     n_basis: Mapped[int] = mapped_column(Integer)
     summary: Mapped[dict[str, Any]] = mapped_column(JSON)
     meta: Mapped[dict[str, Any]] = mapped_column(JSON)
-    blob: Mapped[bytes] = mapped_column(LargeBinary)
+    blob: Mapped[bytes] = mapped_column(LargeBinary, deferred=True)
     job_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
 
@@ -93,7 +94,7 @@ class RomRow(Base):
     params: Mapped[dict[str, Any]] = mapped_column(JSON)
     summary: Mapped[dict[str, Any]] = mapped_column(JSON)
     meta: Mapped[dict[str, Any]] = mapped_column(JSON)
-    blob: Mapped[bytes] = mapped_column(LargeBinary)
+    blob: Mapped[bytes] = mapped_column(LargeBinary, deferred=True)
     job_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
 
@@ -141,7 +142,7 @@ class Evaluation(Base):
     request: Mapped[dict[str, Any]] = mapped_column(JSON)
     summary: Mapped[dict[str, Any]] = mapped_column(JSON)
     meta: Mapped[dict[str, Any]] = mapped_column(JSON)
-    blob: Mapped[bytes] = mapped_column(LargeBinary)
+    blob: Mapped[bytes] = mapped_column(LargeBinary, deferred=True)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
 
 
@@ -189,7 +190,7 @@ class ModesUpload(Base):
     filename: Mapped[str] = mapped_column(String(400), default="")
     summary: Mapped[dict[str, Any]] = mapped_column(JSON)
     meta: Mapped[dict[str, Any]] = mapped_column(JSON)
-    blob: Mapped[bytes] = mapped_column(LargeBinary)
+    blob: Mapped[bytes] = mapped_column(LargeBinary, deferred=True)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
 
 
@@ -203,5 +204,5 @@ class Artifact(Base):
     job_id: Mapped[str] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), index=True)
     name: Mapped[str] = mapped_column(String(100))
     meta: Mapped[dict[str, Any]] = mapped_column(JSON)
-    blob: Mapped[bytes] = mapped_column(LargeBinary)
+    blob: Mapped[bytes] = mapped_column(LargeBinary, deferred=True)
     created_at: Mapped[dt.datetime] = mapped_column(DateTime(timezone=True), default=utcnow)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, undefer
 
 from romams import serialize
 from romams.persistence.errors import id_in_range
@@ -24,7 +24,7 @@ class Repository:
 
     def _load_object(self, model: Any, row_id: int, what: str) -> Any:
         """The core object stored (meta + NPZ blob) in the ``model`` row ``row_id``; KeyError naming ``what``."""
-        row = self._session.get(model, int(row_id)) if id_in_range(row_id) else None
+        row = self._session.get(model, int(row_id), options=[undefer(model.blob)]) if id_in_range(row_id) else None
         if row is None:
             raise KeyError(f"{what} {row_id} not found")
         return serialize.loads(row.meta, row.blob)

@@ -112,7 +112,7 @@ def open_store(settings: Settings | None = None, *, migrate: bool | None = None)
         path = sqlite_path(url)
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
-    engine = get_engine(url, connect_timeout_s=settings.db_connect_timeout_s)
+    engine = get_engine(url, connect_timeout_s=settings.db_connect_timeout_s, pool_size=settings.pool_size)
     if migrate if migrate is not None else sqlite:
         db_file = sqlite_path(url) if sqlite else None  # a server database locks in the data directory
         lock_path = (db_file or settings.data_dir / "romams.db").with_suffix(".migrate.lock")

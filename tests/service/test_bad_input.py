@@ -191,7 +191,9 @@ def test_api_keys_guard_mutating_endpoints(tmp_path):
                 401, "authorization")
         ok = c.post("/api/v1/wings", json={"template": "goland"}, headers={"Authorization": "Bearer k2"})
         assert ok.status_code == 201
-        assert c.get("/api/v1/wings").status_code == 200  # reads need no key
+        problem(c.get("/api/v1/wings"), 401, "authorization")  # with keys configured, reads need one too
+        assert c.get("/api/v1/wings", headers={"Authorization": "Bearer k1"}).status_code == 200
+        assert c.get("/api/v1/health").status_code == 200  # the health check stays open
         problem(c.post("/api/v1/jobs/x/cancel"), 401)
         problem(c.post("/api/v1/modes"), 401)
 
@@ -207,12 +209,14 @@ def test_openapi_documents_the_contract(client):
     for p in ("/api/v1/evaluations/{evaluation_id}/plot.{fmt}", "/api/v1/bases/{basis_id}/shapes.{fmt}"):
         assert set(paths[p]["get"]["responses"]["200"]["content"]) == {"image/png", "image/svg+xml"}, p
     post = paths["/api/v1/wings/{wing}/flutter"]["post"]["responses"]
-    for status in ("400", "401", "403", "404", "409", "413", "422", "503"):
+    for status in ("400", "401", "403", "404", "409", "413", "422", "429", "503"):
         assert set(post[status]["content"]) == {"application/problem+json"}, status
     assert "Retry-After" in post["503"]["headers"] and "WWW-Authenticate" in post["401"]["headers"]
+    assert "Retry-After" in post["429"]["headers"]
     assert spec["components"]["securitySchemes"]["bearer"]["scheme"] == "bearer"
-    assert paths["/api/v1/wings"]["post"]["security"] == [{"bearer": []}] and "security" not in paths[
-        "/api/v1/wings"]["get"]  # reads need no key
+    assert paths["/api/v1/wings"]["post"]["security"] == [{"bearer": []}]
+    assert paths["/api/v1/wings"]["get"]["security"] == [{"bearer": []}]  # reads need a (read) key too
+    assert "security" not in paths["/api/v1/health"]["get"]  # the health check is open
     assert {"title", "status", "detail"} <= set(spec["components"]["schemas"]["Problem"]["required"])
     r = client.delete("/api/v1/wings")  # 405 names every method of the path, not those of its first route
     assert r.status_code == 405 and r.headers["allow"] == "GET, POST"

@@ -101,3 +101,14 @@ def test_environment_variables_are_settings_fields():
     url = SERVICES["api"]["environment"]["ROMAMS_DATABASE_URL"]
     m = re.match(r"postgresql\+psycopg://(\w+):(\w+)@postgres:5432/(\w+)", url)
     assert m and m.groups() == (pg["POSTGRES_USER"], pg["POSTGRES_PASSWORD"], pg["POSTGRES_DB"])
+
+
+def test_api_pool_fits_postgresql_max_connections():
+    """The API processes' database pools (api_threads + 4, plus 4 overflow each) and the workers stay within
+    PostgreSQL's default max_connections (100)."""
+    api = SERVICES["api"]
+    env = api["environment"]
+    processes = int(api["command"][api["command"].index("--workers") + 1])
+    s = Settings(**{k.removeprefix("ROMAMS_").lower(): v for k, v in env.items()})
+    workers = sum(int(SERVICES[w]["environment"].get("ROMAMS_WORKER_CONCURRENCY", 1)) + 1 for w in WORKERS)
+    assert processes * (s.pool_size + 4) + 2 * workers <= 100, (processes, s.pool_size, workers)

@@ -8,6 +8,7 @@ PostgreSQL server binaries (skipped without them, except under CI=true).
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from collections import Counter
@@ -62,7 +63,7 @@ def postgres() -> Iterator[PostgresServer]:
         server.remove()
 
 
-def _seed_basis(store: Store, wing_id: int) -> int:
+def seed_basis(store: Store, wing_id: int) -> int:
     """A stored, active basis of 2 random shapes (no modal analyses): what a training job needs."""
     from romams_core.basis import build_basis
     from romams_core.mesh import standard_mesh
@@ -75,15 +76,14 @@ def _seed_basis(store: Store, wing_id: int) -> int:
     return bid
 
 
-@pytest.fixture()
-def deployment(request, tmp_path: Path, postgres: PostgresServer) -> Iterator[Deployment]:
-    """Own Redis, a fresh database on the module's PostgreSQL, one worker process (``worker_concurrency``, default
-    1), the API; settings FAST, updated by an indirect parameter."""
+@contextlib.contextmanager
+def open_deployment(tmp_path: Path, postgres: PostgresServer, **overrides: object) -> Iterator[Deployment]:
+    """Own Redis, a fresh database on ``postgres``, one worker process (``worker_concurrency``, default 1), the API
+    in process; settings FAST, updated by ``overrides`` (also used by benchmarks.reliability)."""
     from romams.persistence import dispose_engines, open_store
 
     redis = RedisServer(tmp_path).start()
-    values = {"database_url": postgres.create_database(), "broker_url": redis.url, **FAST,
-              **getattr(request, "param", {})}
+    values = {"database_url": postgres.create_database(), "broker_url": redis.url, **FAST, **overrides}
     settings = Settings(data_dir=tmp_path / "data", **values)
     store = open_store(settings, migrate=True)
     worker = WorkerProcess(service_env(tmp_path / "data", **values), tmp_path / "worker.log",
@@ -100,28 +100,42 @@ def deployment(request, tmp_path: Path, postgres: PostgresServer) -> Iterator[De
         dispose_engines()
 
 
+@pytest.fixture()
+def deployment(request, tmp_path: Path, postgres: PostgresServer) -> Iterator[Deployment]:
+    """open_deployment, its settings updated by an indirect parameter."""
+    with open_deployment(tmp_path, postgres, **getattr(request, "param", {})) as d:
+        yield d
+
+
 def _active_jobs(store: Store) -> list[dict]:
     """Jobs (children included) still queued or running."""
     return [j for j in store.jobs.recent(limit=1000, top_level=False) if j["status"] in ACTIVE]
 
 
-def _wait_all_final(d: Deployment, timeout_s: float) -> list[dict]:
-    """Wait until no job is queued or running (else fail naming them); every job, children included."""
+def settle(d: Deployment, timeout_s: float) -> tuple[list[dict], list[dict]]:
+    """Wait until no job is queued or running, at most ``timeout_s``: (every job, children included; those still
+    queued or running)."""
     deadline = time.monotonic() + timeout_s
     while (active := _active_jobs(d.store)) and time.monotonic() < deadline:
         time.sleep(0.5)
+    return d.store.jobs.recent(limit=1000, top_level=False), active
+
+
+def _wait_all_final(d: Deployment, timeout_s: float) -> list[dict]:
+    """Wait until no job is queued or running (else fail naming them); every job, children included."""
+    jobs, active = settle(d, timeout_s)
     assert not active, ([(j["id"][:8], j["kind"], j["status"], j["message"]) for j in active], d.logs())
-    return d.store.jobs.recent(limit=1000, top_level=False)
+    return jobs
 
 
-def _basis(d: Deployment, seed: int) -> str:
+def submit_basis(d: Deployment, seed: int) -> str:
     """Submit a small basis job (6 LHS samples x 2 modes: 3 chunks of cheap modal analyses); its job id."""
     r = d.client.post(f"/api/v1/wings/{d.wing_id}/basis", json={"samples": 6, "modes": 2, "seed": seed})
     assert r.status_code == 202, r.text
     return r.json()["job_id"]
 
 
-def _training_running(d: Deployment, mach: float) -> str:
+def training_running(d: Deployment, mach: float) -> str:
     """Submit a DLM training and wait until the worker runs it; its job id."""
     r = d.client.post(f"/api/v1/wings/{d.wing_id}/roms", json={"mach": mach, "options": RFA_FAST})
     assert r.status_code == 202, r.text
@@ -136,11 +150,11 @@ def test_redis_restart_without_persistence_loses_no_job(deployment):
     evaluation after the restart answers within 5 s, the running job finishes, the sweeper re-sends the queued jobs
     whose messages died with Redis; every job succeeds."""
     d = deployment
-    _seed_basis(d.store, d.wing_id)
-    first = wait_job(d.client, _training_running(d, 0.5), 240)
+    seed_basis(d.store, d.wing_id)
+    first = wait_job(d.client, training_running(d, 0.5), 240)
     assert first["status"] == "succeeded", (first, d.logs())
-    training = _training_running(d, 0.6)
-    queued = [_basis(d, seed) for seed in (1, 2, 3)]
+    training = training_running(d, 0.6)
+    queued = [submit_basis(d, seed) for seed in (1, 2, 3)]
     assert d.store.jobs.status(training) == "running" and d.store.jobs.status(queued[-1]) == "queued"
     d.redis.stop()
     time.sleep(1.0)
@@ -159,7 +173,7 @@ def test_redis_restart_without_persistence_loses_no_job(deployment):
     assert d.worker.proc.poll() is None, d.logs()
 
 
-class _Load:
+class Load:
     """Requests sent through the API in a loop on a thread; statuses, problems and transport errors recorded."""
 
     def __init__(self, d: Deployment) -> None:
@@ -192,7 +206,7 @@ class _Load:
             self._one("POST", f"/api/v1/wings/{wid}/flutter", json={"design": DESIGN, "machs": [0.5], "store": False})
             time.sleep(0.05)
 
-    def __enter__(self) -> _Load:
+    def __enter__(self) -> Load:
         self._t.start()
         return self
 
@@ -211,13 +225,13 @@ def test_postgresql_restart_gives_only_503s_and_leaves_no_job_stuck(deployment):
     every job ends succeeded (none left running without a heartbeat or queued) and the worker is alive. The
     sweeper is slowed down to 600 s: the recovery is the worker's own (a task that meets the outage is retried)."""
     d = deployment
-    _seed_basis(d.store, d.wing_id)
-    first = wait_job(d.client, _training_running(d, 0.5), 240)  # the ROM the evaluations use
+    seed_basis(d.store, d.wing_id)
+    first = wait_job(d.client, training_running(d, 0.5), 240)  # the ROM the evaluations use
     assert first["status"] == "succeeded", (first, d.logs())
-    training = _training_running(d, 0.6)
+    training = training_running(d, 0.6)
     for seed in (1, 2):
-        _basis(d, seed)
-    with _Load(d) as load:
+        submit_basis(d, seed)
+    with Load(d) as load:
         time.sleep(1.0)
         assert d.store.jobs.status(training) == "running"
         d.postgres.stop()
@@ -239,11 +253,11 @@ def test_cancel_right_after_the_submit_of_a_fanout_job_leaves_no_child_queued(de
     """A basis job cancelled 0-50 ms after its submit, 12 times (the worker may be creating its chunk jobs at that
     moment): every parent ends cancelled, and no chunk job is left queued or running."""
     d = deployment
-    warm = wait_job(d.client, _basis(d, 999), 120)  # the worker is up and idle
+    warm = wait_job(d.client, submit_basis(d, 999), 120)  # the worker is up and idle
     assert warm["status"] == "succeeded", (warm, d.logs())
     parents = []
     for i in range(12):
-        parents.append(_basis(d, 1000 + i))
+        parents.append(submit_basis(d, 1000 + i))
         time.sleep(0.005 * (i % 11))
         r = d.client.post(f"/api/v1/jobs/{parents[-1]}/cancel")
         assert r.status_code in (200, 409), r.text

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 
@@ -280,3 +281,22 @@ def serialize_fields_of_old_row() -> dict:
                 omega_flutter_rad_s=500.0, q_flutter_pa=1234.5, rho_flutter=0.3, altitude_m=None, k_flutter=0.4,
                 v_true_m_s=260.0, flutter_mode=2, sdoff=False, energy_share=0.6, frequency_separation=0.1,
                 single_mode_unstable=False, message="m", rho_ref=0.41, a_ref=299.5, c_ref=0.37, dt_star=0.1)
+
+
+def test_worker_result_cache_is_bounded_by_entries_and_json_bytes():
+    from worker.cache import ResultCache
+
+    summary = {"mass_kg": 1.25, "results": [{"mach": 0.87, "v_flutter_m_s": 250.5, "sdoff": False}], "note": "x"}
+    size = len(json.dumps(summary, separators=(",", ":")))
+    c = ResultCache(maxsize=100, maxbytes=3 * size)
+    for k in range(5):
+        c.put(k, {**summary, "note": str(k)})
+    assert len(c) == 3 and c.bytes == 3 * size  # the oldest two evicted by bytes, not by count
+    assert c.get(0) is None and c.get(4) == {**summary, "note": "4"}
+    hit = c.get(3)
+    hit["mass_kg"] = 0.0  # a hit is a copy: the cached summary does not change
+    assert c.get(3)["mass_kg"] == 1.25
+    c = ResultCache(maxsize=2, maxbytes=10**6)
+    for k in range(3):
+        c.put(k, summary)
+    assert len(c) == 2 and c.get(0) is None and c.bytes == 2 * size
