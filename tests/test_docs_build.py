@@ -31,3 +31,34 @@ def test_mkdocs_builds_strict_with_the_generated_api_reference(tmp_path):
     assert not missing, missing
     for model in spec["components"]["schemas"]:
         assert re.search(rf"<h3[^>]*>{re.escape(model)}", html), model
+
+
+def test_api_reference_renders_parameters_body_responses_and_models():
+    """The generated page states each operation's parameters, body model, response codes and model fields."""
+    from api.openapi_doc import render
+
+    spec = {
+        "info": {"title": "t", "version": "1", "description": "d"},
+        "paths": {"/api/v1/things/{thing}": {"post": {
+            "tags": ["things"], "summary": "Make Thing", "description": "Make a thing.", "security": [{"bearer": []}],
+            "parameters": [{"name": "thing", "in": "path", "required": True, "schema": {"type": "string"}},
+                           {"name": "n", "in": "query", "schema": {"anyOf": [{"type": "integer"}, {"type": "null"}]},
+                            "description": "how | many"}],
+            "requestBody": {"required": True, "content": {"application/json": {
+                "schema": {"$ref": "#/components/schemas/ThingIn"}}}},
+            "responses": {"201": {"description": "made", "content": {"application/json": {
+                "schema": {"type": "array", "items": {"$ref": "#/components/schemas/ThingIn"}}}}},
+                "422": {"description": "bad", "content": {"application/problem+json": {
+                    "schema": {"$ref": "#/components/schemas/Problem"}}}}}}}},
+        "components": {"schemas": {"ThingIn": {"description": "A thing.", "required": ["size"], "properties": {
+            "size": {"type": "number", "description": "size (m)"}}}}},
+    }
+    page = render(spec)
+    assert "### `POST /api/v1/things/{thing}` {#post-api-v1-things-thing}" in page
+    assert "**Make Thing** (API key when keys are set). Make a thing." in page
+    assert "| `thing` | path | yes | string |  |" in page
+    assert "| `n` | query | no | integer or null | how \\| many |" in page
+    assert "**Request body** (required): `application/json`: ThingIn" in page
+    assert "| 201 | `application/json` array of ThingIn | made |" in page
+    assert "| 422 | `application/problem+json` Problem | bad |" in page
+    assert "| `size` | number | yes | size (m) |" in page
