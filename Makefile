@@ -5,7 +5,7 @@ PYTEST_ARGS ?= -n 2 --dist worksteal
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: install demo test lint bench
+.PHONY: install demo test lint bench docs
 
 $(BIN)/romams: pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -30,3 +30,8 @@ lint: install
 
 bench: install
 	$(BIN)/python -m benchmarks.run --json
+
+# the user docs (MkDocs, docs/ + mkdocs.yml) into site/; --strict: any warning (a broken link, an anchor) fails;
+# the HTTP API reference page is generated from the OpenAPI document on every build (docs/hooks.py)
+docs: install
+	$(BIN)/mkdocs build --strict --site-dir site
