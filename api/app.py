@@ -15,6 +15,7 @@ from starlette.types import ASGIApp
 from api import openapi, problems
 from api.deps import Service, service, single_query_values
 from api.middleware import RequestGuard, SecurityHeaders
+from api.responses import Health, ok
 from romams import __version__
 from romams.jobs import StaleSweeper
 from romams.persistence import open_store
@@ -76,7 +77,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
     def root() -> RedirectResponse:
         return RedirectResponse("/dashboard")
 
-    @app.get("/api/v1/health", tags=["meta"], responses=openapi.problems(503))
+    @app.get("/api/v1/health", tags=["meta"], responses={**openapi.problems(503), **ok(Health, "the service is up")})
     def health(svc: Service = Depends(service)) -> dict[str, Any]:
         """Liveness + database check (503 problem with Retry-After while the database is unavailable)."""
         return {"status": "ok", "version": __version__, "database": svc.store.ping()}
