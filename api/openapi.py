@@ -28,9 +28,10 @@ DESCRIPTIONS = {
     413: "request body, upload or batch larger than its limit",
     501: "the server lacks an optional part (pyNastran for Nastran files)",
     422: "invalid input: `field` names the first offending field, `errors` lists every one",
+    429: "too many requests from this client: retry after Retry-After seconds",
     503: "the database or the broker is unavailable: retry after Retry-After seconds",
 }
-HEADERS = {401: WWW_AUTHENTICATE, 503: RETRY_AFTER}
+HEADERS = {401: WWW_AUTHENTICATE, 429: RETRY_AFTER, 503: RETRY_AFTER}
 
 
 class FieldError(BaseModel):
@@ -41,31 +42,57 @@ class FieldError(BaseModel):
 
 
 class ProblemDetails(BaseModel):
-    """RFC 9457 problem details (``field``: the offending input; more keys may follow, e.g. ``job_id``)."""
+    """RFC 9457 problem details (``field``: the offending input; more keys may follow, e.g. ``job_status``)."""
 
     model_config = ConfigDict(extra="allow", title="Problem")
 
-    type: str = "about:blank"
-    title: str
-    status: int
-    detail: str
-    field: str | None = None
-    instance: str | None = None
+    type: str = Field(default="about:blank", description="URI of the problem type (always about:blank: the status "
+                      "says it all)")
+    title: str = Field(description="the status's reason phrase")
+    status: int = Field(description="the HTTP status code")
+    detail: str = Field(description="what went wrong, starting with the offending field")
+    field: str | None = Field(default=None, description="dotted path of the offending input (body, query, path or "
+                              "form field; e.g. designs[3].t_skin_root)")
+    instance: str | None = Field(default=None, description="the request path")
     errors: list[FieldError] | None = Field(default=None, description="every validation error (422)")
 
 
+#: an example body of each error status (what the service sends; ``instance`` is the request path)
+EXAMPLES: dict[int, dict[str, Any]] = {
+    400: {"detail": "content-length: not a byte count", "field": "content-length"},
+    401: {"detail": "authorization: a Bearer API key is required for this endpoint", "field": "authorization"},
+    403: {"detail": "authorization: the API key is not valid", "field": "authorization"},
+    404: {"detail": "wing: no wing 'nope'", "field": "wing", "instance": "/api/v1/wings/nope"},
+    409: {"detail": "job_id: job 1b2c is already succeeded", "field": "job_id", "job_status": "succeeded"},
+    413: {"detail": "designs: at most 2000 designs per batch, got 5000", "field": "designs"},
+    422: {"detail": "samples: Input should be greater than or equal to 2", "field": "samples",
+          "errors": [{"field": "samples", "reason": "Input should be greater than or equal to 2"}]},
+    429: {"detail": "too many requests: retry after 1 s"},
+    501: {"detail": "bdf: Nastran support (pyNastran) is not installed on this server", "field": "bdf"},
+    503: {"detail": "database unavailable: connection refused"},
+}
+
+
+def example_problem(status: int) -> dict[str, Any]:
+    """A problem+json body of ``status`` (RFC 9457 members first, then the service's own)."""
+    from api.problems import TITLES
+
+    return {"type": "about:blank", "title": TITLES.get(status, "Error"), "status": status, **EXAMPLES[status]}
+
+
 def problems(*statuses: int) -> dict[int | str, dict[str, Any]]:
-    """``responses=`` entries of the problem+json errors with these statuses."""
+    """``responses=`` entries of the problem+json errors with these statuses (each with an example body)."""
     out: dict[int | str, dict[str, Any]] = {}
     for s in statuses:
-        out[s] = {"description": DESCRIPTIONS[s], "content": {PROBLEM_JSON: {"schema": PROBLEM_REF}}}
+        out[s] = {"description": DESCRIPTIONS[s],
+                  "content": {PROBLEM_JSON: {"schema": PROBLEM_REF, "example": example_problem(s)}}}
         if s in HEADERS:
             out[s]["headers"] = HEADERS[s]
     return out
 
 
-#: every API route: invalid parameters, database or broker down
-READ = problems(422, 503)
+#: every API route: invalid parameters, too many requests, database or broker down
+READ = problems(422, 429, 503)
 #: mutating routes: the key (checked before the body is read), the body size, a body that cannot be parsed
 WRITE = problems(400, 401, 403, 413)
 #: routes with a row id in their path
