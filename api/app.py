@@ -57,6 +57,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
                 sw.stop()
 
     app = RomamsAPI(title="romams", version=__version__, lifespan=lifespan, dependencies=[Depends(single_query_values)],
+                    docs_url=None, redoc_url=None,
                   description="ROM-AMS flutter service: wings, PCA bases, aerodynamic ROM training, flutter "
                               "evaluation of arbitrary structures. Errors are RFC 9457 problem+json.")
     app.state.service = Service(settings=settings, store=store, celery=celery)
@@ -71,6 +72,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
         app.include_router(r, prefix="/api/v1")
     app.include_router(dashboard_router)
     app.include_router(pages_router)
+    openapi.install_docs(app)  # /docs and /redoc from the package's assets (no CDN)
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
 
     @app.get("/", include_in_schema=False)
