@@ -183,7 +183,8 @@ class JobAccepted(BaseModel):
 class BatchResults(BaseModel):
     """A finished batch: one flutter summary per design, in request order."""
 
-    model_config = example(job_id="c0ffee00-1234", run_id=1, results=[{"wing": "cropped-delta", "method": "rom-ams"}])
+    model_config = example(job_id="c0ffee00-1234", run_id=1,
+                           results=FlutterSummary.model_json_schema()["examples"][:1])
 
     results: list[FlutterSummary]
     job_id: str

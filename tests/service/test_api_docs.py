@@ -97,3 +97,24 @@ def test_docs_render_with_the_network_blocked(server):  # noqa: F811 - the fixtu
     # itself on error); no request leaves the browser for it
     errors = [e for e in errors if "cdn.redoc.ly/redoc/logo-mini.svg" not in e]
     assert blocked == [] and errors == [], (blocked, errors)
+
+
+def test_every_documented_example_is_valid_for_its_model():
+    import inspect
+
+    from pydantic import BaseModel
+
+    import api.responses
+    import api.schemas
+    from api.openapi import EXAMPLES, ProblemDetails, example_problem
+
+    models = [m for mod in (api.responses, api.schemas) for _, m in inspect.getmembers(mod, inspect.isclass)
+              if issubclass(m, BaseModel) and m.__module__ == mod.__name__]
+    checked = 0
+    for model in models:
+        for ex in model.model_json_schema().get("examples", []):
+            model.model_validate(ex, strict=False)  # raises (naming the model) when an example lies
+            checked += 1
+    assert checked >= 20, checked
+    for status in EXAMPLES:
+        assert ProblemDetails.model_validate(example_problem(status)).status == status
