@@ -17,6 +17,7 @@ from starlette.types import ASGIApp
 from api import openapi, problems
 from api.deps import Service, service, single_query_values
 from api.middleware import RequestGuard, SecurityHeaders
+from api.responses import Health, ok
 from romams import __version__
 from romams.jobs import StaleSweeper
 from romams.persistence import open_store
@@ -61,6 +62,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
                 sw.stop()
 
     app = RomamsAPI(title="romams", version=__version__, lifespan=lifespan, dependencies=[Depends(single_query_values)],
+                    docs_url=None, redoc_url=None,
                   description="ROM-AMS flutter service: wings, PCA bases, aerodynamic ROM training, flutter "
                               "evaluation of arbitrary structures. Errors are RFC 9457 problem+json.")
     app.state.service = Service(settings=settings, store=store, celery=celery)
@@ -79,13 +81,14 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
         app.include_router(r, prefix="/api/v1")
     app.include_router(dashboard_router)
     app.include_router(pages_router)
+    openapi.install_docs(app)  # /docs and /redoc from the package's assets (no CDN)
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
 
     @app.get("/", include_in_schema=False)
     def root() -> RedirectResponse:
         return RedirectResponse("/dashboard")
 
-    @app.get("/api/v1/health", tags=["meta"], responses=openapi.problems(503))
+    @app.get("/api/v1/health", tags=["meta"], responses={**openapi.problems(503), **ok(Health, "the service is up")})
     def health(svc: Service = Depends(service)) -> dict[str, Any]:
         """Liveness + database check (503 problem with Retry-After while the database is unavailable)."""
         return {"status": "ok", "version": __version__, "database": svc.store.ping()}

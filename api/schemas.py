@@ -50,6 +50,8 @@ class WingCreate(_Strict):
 class Created(BaseModel):
     """Id of a created resource."""
 
+    model_config = ConfigDict(json_schema_extra={"examples": [{"id": 1}]})
+
     id: int
 
 
@@ -68,6 +70,8 @@ class BasisRequest(_Strict):
 
 class JobRef(BaseModel):
     """A submitted job."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [{"job_id": "c0ffee00-1234", "existing": False}]})
 
     job_id: str
     existing: bool = False
@@ -199,7 +203,15 @@ class MachResult(BaseModel):
 class FlutterSummary(BaseModel):
     """Flutter evaluation of one structure: the same keys from the API, ``romams flutter --json`` and in-process."""
 
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="allow", json_schema_extra={"examples": [{
+        "wing": "cropped-delta", "wing_id": 1, "method": "rom-ams", "basis_id": 3, "n_basis": 8,
+        "flight_condition": {"sweep": "constant-speed", "altitude_ref_m": 10000.0}, "mass_kg": 0.1893,
+        "frequencies_hz": [13.9, 45.1, 60.2, 98.7], "mac": [0.99999, 0.99998, 0.99996, 0.99993], "min_mac": 0.99993,
+        "mac_ok": True, "fit_error_estimate_pct": 0.2, "warning": None, "constraints_ok": True, "envelope_ok": True,
+        "results": [{"mach": 0.79, "flutter_found": True, "v_flutter_m_s": 236.0, "v_true_m_s": 236.0,
+                     "v_eas_m_s": 121.0, "q_flutter_pa": 9000.0, "omega_flutter_rad_s": 210.0, "flutter_mode": 1,
+                     "sdoff": False, "sweep": "constant-speed", "altitude_ref_m": 10000.0, "rho_ref_kg_m3": 0.4135}],
+        "evaluation_id": 7, "job_id": "c0ffee00-1234"}]})
 
     wing: str
     method: str
@@ -218,6 +230,13 @@ class FlutterSummary(BaseModel):
 
 class JobOut(BaseModel):
     """A job as the API shows it."""
+
+    model_config = ConfigDict(extra="allow", json_schema_extra={"examples": [{
+        "id": "c0ffee00-1234", "kind": "basis", "status": "running", "progress": 0.4, "message": "modal analyses 10/25",
+        "result": None, "error": None, "params": {"samples": 25}, "wing_id": 1, "parent_id": None, "deliveries": 1,
+        "worker": "celery@host", "run_id": None, "traceback": None, "events": [["2026-12-02T10:00:00+00:00", 0.4,
+        "modal analyses 10/25"]], "created_at": "2026-12-02T10:00:00+00:00", "started_at": "2026-12-02T10:00:00+00:00",
+        "finished_at": None, "updated_at": "2026-12-02T10:00:01+00:00"}]})
 
     id: str
     kind: str
@@ -301,6 +320,14 @@ class RunSummary(BaseModel):
 
 class RunEvaluations(BaseModel):
     """A page of a run's evaluations (poll with after_id = last_id)."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [{
+        "run_id": 1, "flutter_fields": ["mach", "v_eas_m_s", "frequency_hz", "flutter_mode", "safe_altitude_m",
+                                        "benchmark_safe_altitude_m"],
+        "evaluations": [{"id": 41, "job_id": "c0ffee00-1234", "x": [0.002, 0.0015], "mass_kg": 0.1893,
+                         "objective": 0.1893, "feasible": True, "envelope_ok": True, "min_mac": 0.9999,
+                         "flutter": [[0.79, 121.0, 33.4, 1, 10500.0, 10000.0]], "error": None,
+                         "evaluation_id": None}], "last_id": 41}]})
 
     run_id: int
     flutter_fields: list[str]

@@ -14,6 +14,7 @@ from api.deps import Service, require_key, service, wing_or_404
 from api.openapi import FOUND, IMAGE, LIMITED, READ, WING, WRITE
 from api.plot_cache import DPI, MEDIA_TYPES, NOT_MODIFIED, plot_response
 from api.problems import Problem, from_value_error, invalid
+from api.responses import BatchResults, EvaluationOut, EvaluationSummary, JobAccepted, VgData, ok
 from api.schemas import BatchRequest, FlutterRequest, FlutterSummary
 from romams import jobs
 from romams.persistence import FINAL, ID_MAX, ID_MIN, JobStatus
@@ -131,7 +132,7 @@ def _submit(svc: Service, wing: str, body: FlutterRequest) -> dict[str, Any] | t
              responses={**WRITE, **WING, **LIMITED,
                         200: {"model": FlutterSummary, "description": "the evaluation (v_flutter_m_s is the true "
                                                                       "airspeed; v_eas_m_s the equivalent one)"},
-                        202: {"description": "not finished within sync_timeout_s: {job_id, status}"}})
+                        **ok(JobAccepted, "not finished within sync_timeout_s, or rom-pms: the job", 202)})
 async def flutter(wing: str, body: FlutterRequest, response: Response, svc: Service = Depends(service)) -> Any:
     """Flutter evaluation of one structure at the trained (or given) Mach numbers; synchronous (up to
     sync_timeout_s; the wait holds no server thread)."""
@@ -155,8 +156,8 @@ async def flutter(wing: str, body: FlutterRequest, response: Response, svc: Serv
 
 
 @router.post("/wings/{wing}/flutter/batch", dependencies=[Depends(require_key)],
-             responses={**WRITE, **WING, **LIMITED, 202: {"description": "a large batch, or one not finished within "
-                                                             "sync_timeout_s: {job_id, status, n}"}})
+             responses={**WRITE, **WING, **LIMITED, **ok(BatchResults, "every design's flutter summary, in order"),
+                        **ok(JobAccepted, "a large batch, or one not finished within sync_timeout_s", 202)})
 async def flutter_batch(wing: str, body: BatchRequest, response: Response,
                         svc: Service = Depends(service)) -> dict[str, Any]:
     """Batch of designs: results in order (synchronous up to batch_sync_max designs, else 202 with a job; the wait
@@ -230,7 +231,7 @@ def _evaluation_or_404(svc: Service, evaluation_id: int, full: bool = False) -> 
     return ev
 
 
-@router.get("/evaluations")
+@router.get("/evaluations", responses=ok(list[EvaluationSummary], "newest first"))
 def list_evaluations(wing_id: int | None = Query(default=None, ge=ID_MIN, le=ID_MAX),
                      limit: int = Query(default=20, ge=1, le=500),
                      svc: Service = Depends(service)) -> list[dict[str, Any]]:
@@ -238,7 +239,7 @@ def list_evaluations(wing_id: int | None = Query(default=None, ge=ID_MIN, le=ID_
     return svc.store.evaluations.recent(wing_id, limit)
 
 
-@router.get("/evaluations/{evaluation_id}", responses=FOUND)
+@router.get("/evaluations/{evaluation_id}", responses={**FOUND, **ok(EvaluationOut, "the evaluation")})
 def get_evaluation(evaluation_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
     """A stored evaluation: request and summary."""
     return _evaluation_or_404(svc, evaluation_id)
@@ -249,7 +250,7 @@ def flutter_results(result: Any) -> list[Any]:
     return list(getattr(result, "flutter", []) or [])
 
 
-@router.get("/evaluations/{evaluation_id}/vg", responses=FOUND)
+@router.get("/evaluations/{evaluation_id}/vg", responses={**FOUND, **ok(VgData, "V-g data by Mach")})
 def vg_data(evaluation_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
     """V-g and V-omega data of every Mach: speeds (m/s), q (Pa), damping g and frequencies (rad/s) per branch."""
     ev = _evaluation_or_404(svc, evaluation_id, full=True)

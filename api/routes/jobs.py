@@ -9,6 +9,8 @@ from fastapi import APIRouter, Depends, Query, Response
 from api.deps import Service, no_nul, require_key, service
 from api.openapi import FOUND, READ, WRITE, problems
 from api.problems import Problem
+from api.responses import ok
+from api.schemas import JobOut
 from romams.persistence import ID_MAX, ID_MIN, JobStatus
 
 router = APIRouter(tags=["jobs"], responses=READ)
@@ -23,7 +25,7 @@ def job_or_404(svc: Service, job_id: str) -> dict[str, Any]:
     return job
 
 
-@router.get("/jobs")
+@router.get("/jobs", responses=ok(list[JobOut], "jobs, newest first (X-Total-Count: matching jobs)"))
 def list_jobs(response: Response, status: JobStatus | None = None,
               kind: str | None = Query(default=None, max_length=40), limit: int = Query(default=50, ge=1, le=1000),
               include_children: bool = False,
@@ -43,13 +45,14 @@ def list_jobs(response: Response, status: JobStatus | None = None,
         return uow.jobs.recent(limit=limit, offset=offset, **filters)
 
 
-@router.get("/jobs/{job_id}", responses=FOUND)
+@router.get("/jobs/{job_id}", responses={**FOUND, **ok(JobOut, "the job")})
 def get_job(job_id: str, svc: Service = Depends(service)) -> dict[str, Any]:
     """One job: status, progress 0..1, message, result, error, timestamps."""
     return job_or_404(svc, job_id)
 
 
-@router.post("/jobs/{job_id}/cancel", dependencies=[Depends(require_key)], responses={**WRITE, **problems(404, 409)})
+@router.post("/jobs/{job_id}/cancel", dependencies=[Depends(require_key)], responses={**WRITE, **problems(404, 409),
+                                                                                    **ok(JobOut, "the cancelled job")})
 def cancel_job(job_id: str, svc: Service = Depends(service)) -> dict[str, Any]:
     """Cancel a queued or running job (its task stops at its next progress step)."""
     job = job_or_404(svc, job_id)

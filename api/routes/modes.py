@@ -19,6 +19,7 @@ from fastapi.concurrency import run_in_threadpool
 from api.deps import Service, require_key, service
 from api.openapi import READ, WRITE
 from api.problems import Problem, from_value_error, invalid
+from api.responses import ModesStored, ok
 from api.uploads import filename, save, save_deck
 
 router = APIRouter(tags=["modes"], responses=READ)
@@ -33,7 +34,8 @@ def _nastran_modes(deck: Path, op2: Path, options: dict[str, Any], spline: str) 
     return dataclasses.replace(modes, spline=spline)
 
 
-@router.post("/modes", status_code=201, dependencies=[Depends(require_key)], responses=WRITE)
+@router.post("/modes", status_code=201, dependencies=[Depends(require_key)],
+             responses={**WRITE, **ok(ModesStored, "the stored modes", 201)})
 async def upload_modes(bdf: list[UploadFile] | None = File(default=None), op2: UploadFile | None = File(default=None),
                        file: UploadFile | None = File(default=None),
                        subcase: int | None = Form(default=None, ge=0),

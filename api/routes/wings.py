@@ -18,6 +18,18 @@ from api.deps import WING_NAME_MAX, Service, no_nul, require_key, service, wing_
 from api.openapi import FOUND, IMAGE, READ, WING, WRITE, problems
 from api.plot_cache import NOT_MODIFIED, plot_response
 from api.problems import Problem, from_value_error, invalid
+from api.responses import (
+    ActiveBasisOut,
+    BasisOut,
+    JsonSchemaDocument,
+    MeanFlow,
+    RomJob,
+    RomJobs,
+    RomOut,
+    WingDetail,
+    WingSummary,
+    ok,
+)
 from api.schemas import ActiveBasis, BasisRequest, Created, JobRef, RomRequest, WingCreate
 from api.uploads import MAX_DECK_FILES, save_deck
 from romams.jobs import submit
@@ -167,7 +179,7 @@ async def create_wing(request: Request, svc: Service = Depends(service)) -> dict
     return await run_in_threadpool(_create, svc, wing, name)
 
 
-@router.get("/schemas/wing")
+@router.get("/schemas/wing", responses=ok(JsonSchemaDocument, "the JSON Schema of a wing definition"))
 def wing_schema() -> dict[str, Any]:
     """JSON Schema of a wing definition (the ``definition`` of POST /wings; ``romams wing schema``)."""
     from romams.wing_files import wing_schema as schema
@@ -175,7 +187,7 @@ def wing_schema() -> dict[str, Any]:
     return schema()
 
 
-@router.get("/wings")
+@router.get("/wings", responses=ok(list[WingSummary], "every stored wing, by id"))
 def list_wings(svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """All stored wings."""
     out = []
@@ -188,7 +200,7 @@ def list_wings(svc: Service = Depends(service)) -> list[dict[str, Any]]:
     return out
 
 
-@router.get("/wings/{wing}", responses=WING)
+@router.get("/wings/{wing}", responses={**WING, **ok(WingDetail, "the wing")})
 def get_wing(wing: str, svc: Service = Depends(service)) -> dict[str, Any]:
     """One wing (by id or name) with its design variables."""
     wid, w = wing_or_404(svc, wing)
@@ -218,7 +230,8 @@ def start_basis(wing: str, body: BasisRequest, response: Response, svc: Service 
     return {"job_id": submit(svc.store, svc.celery, "basis", params, wing_id=wid, key=key)}
 
 
-@router.put("/wings/{wing}/active-basis", dependencies=[Depends(require_key)], responses={**WRITE, **WING})
+@router.put("/wings/{wing}/active-basis", dependencies=[Depends(require_key)],
+            responses={**WRITE, **WING, **ok(ActiveBasisOut, "the active basis")})
 def set_active_basis(wing: str, body: ActiveBasis, svc: Service = Depends(service)) -> dict[str, Any]:
     """Make one of the wing's bases the active one (what evaluations and trainings use unless told otherwise)."""
     wid, _ = wing_or_404(svc, wing)
@@ -227,7 +240,7 @@ def set_active_basis(wing: str, body: ActiveBasis, svc: Service = Depends(servic
     return {"wing_id": wid, "active_basis_id": bid}
 
 
-@router.get("/wings/{wing}/bases", responses=WING)
+@router.get("/wings/{wing}/bases", responses={**WING, **ok(list[BasisOut], "bases, newest first")})
 def list_bases(wing: str, svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Bases of a wing, newest first: parameters, size m, MAC table (worst MAC by m, per-sample MACs)."""
     wid, _ = wing_or_404(svc, wing)
@@ -266,7 +279,8 @@ def _train_options(solver: str, options: dict[str, Any], n_shapes: int | None = 
 
 
 @router.post("/wings/{wing}/roms", status_code=202, dependencies=[Depends(require_key)],
-             responses={**WRITE, **WING, 200: {"description": "every model exists or is training: no new job"}})
+             responses={**WRITE, **WING, **ok(RomJob | RomJobs, "every model exists or is training: no new job"),
+                        **ok(RomJob | RomJobs, "training jobs queued (RomJob for mach, RomJobs for machs)", 202)})
 def start_training(wing: str, body: RomRequest, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Train ROMs: one job per Mach; an identical request returns the existing model or the running job."""
     wid, wdef = wing_or_404(svc, wing)
@@ -317,7 +331,7 @@ def start_training(wing: str, body: RomRequest, response: Response, svc: Service
     return {"job_ids": [i["job_id"] for i in items], "items": items}
 
 
-@router.get("/wings/{wing}/roms", responses=WING)
+@router.get("/wings/{wing}/roms", responses={**WING, **ok(list[RomOut], "trained ROMs, by Mach")})
 def list_roms(wing: str, basis_id: int | None = Query(default=None, ge=ID_MIN, le=ID_MAX),
               svc: Service = Depends(service)) -> list[dict[str, Any]]:
     """Trained ROMs of a wing: Mach, solver settings, validation fit error."""
@@ -353,7 +367,7 @@ def _mean_flow_or_404(svc: Service, rom_id: int) -> dict[str, Any]:
     return dict(mean_flow)
 
 
-@router.get("/roms/{rom_id}/mean-flow", responses=FOUND)
+@router.get("/roms/{rom_id}/mean-flow", responses={**FOUND, **ok(MeanFlow, "the TSD mean flow")})
 def rom_mean_flow(rom_id: int, svc: Service = Depends(service)) -> dict[str, Any]:
     """Steady mean flow of a TSD ROM: linear surface Cp (upper/lower) on the wing nodes (x/c by span fraction),
     the sonic Cp*, and the pseudo-time convergence (steps, converged, residual history)."""

@@ -260,8 +260,9 @@ def test_security_headers_on_dashboard_api_static_and_errors(small):
     assert "<script src=\"/static/dashboard.js\">" in page
     js = small.get("/static/dashboard.js").text
     assert "style=" not in js and "el.style.width" in js
-    docs = small.get("/docs")  # Swagger UI: its CDN and inline start-up script, still no framing
-    assert "https://cdn.jsdelivr.net" in docs.headers["content-security-policy"]
+    docs = small.get("/docs")  # Swagger UI from this server only (no CDN, no inline script), still no framing
+    assert "script-src 'self';" in docs.headers["content-security-policy"]
+    assert "https:" not in docs.headers["content-security-policy"]
     assert "frame-ancestors 'none'" in docs.headers["content-security-policy"]
 
 
