@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from client.errors import RomamsError
-from client.http import RomamsClient, WingRef
+from romams_client.errors import RomamsError
+from romams_client.http import RomamsClient, WingRef
 
 
 @dataclass
@@ -213,6 +213,18 @@ class FlutterProblem:
         _, single = self._as_population(x)
         obj = self.evaluate(x).objective
         return float(obj[0]) if single else obj
+
+    def inequality_constraints(self, ev: BatchEvaluation) -> np.ndarray:
+        """Constraints of a batch as G [n, n_mach + 2] <= 0 (pymoo's and Optuna's convention), feasible iff all hold.
+
+        Columns: per Mach the envelope excess ``-margin - envelope_tol_m`` (m); the MAC deficit
+        ``mac_threshold - min_mac``; the SDOFF flag (1 when present). A design the service could not evaluate gets
+        a MAC deficit above 1, one without a baseline to compare with an envelope column of 0.
+        """
+        margin = ev.envelope_margin_m
+        env = np.where(np.isnan(margin), np.where(ev.envelope_ok, 0.0, 1e3)[:, None], -margin - self.envelope_tol_m)
+        mac = self.mac_threshold - np.nan_to_num(ev.min_mac, nan=-1.0)
+        return np.column_stack([env, mac, ev.sdoff.astype(float)])
 
     def constraints(self, x: Any) -> dict[str, np.ndarray]:
         """mass [n], envelope_margin_m [n, n_mach], envelope_ok, sdoff, min_mac and feasible [n] of X."""

@@ -16,7 +16,7 @@ from urllib.parse import quote
 import httpx
 import numpy as np
 
-from client.errors import JobError, JobTimeout, RomamsError
+from romams_client.errors import JobError, JobTimeout, RomamsError
 
 #: statuses that mean "try again later" (the service or a proxy in front of it is momentarily unavailable)
 RETRY_STATUSES = frozenset({502, 503, 504})
