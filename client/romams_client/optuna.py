@@ -2,16 +2,16 @@
 
 Needs ``pip install 'romams-client[optuna]'``; optuna is imported only when this module's functions run.
 
-    study = optuna.create_study(sampler=optuna.samplers.NSGAIISampler(population_size=20,
-                                constraints_func=constraints_func))
+    study = optuna.create_study(sampler=optuna.samplers.NSGAIISampler(population_size=20))
     batch = OptunaBatch(problem, study)
-    for generation in range(10):
-        batch.step(20)          # 20 trials asked, evaluated in one request, told
-    study.best_trial.params
+    best = batch.optimize(generations=10, n=20)   # 10 x (20 trials asked, one request, told)
+    best.params
 
-Each trial's user attributes carry ``mass_kg``, ``feasible`` and ``constraints`` (G <= 0, see
-:meth:`FlutterProblem.inequality_constraints`), which :func:`constraints_func` hands to Optuna's constrained
-samplers (NSGA-II, TPE, GP). The value told is the penalty objective mass + mu * C (kg).
+The value told is the penalty objective mass + mu * C (kg). The constraints G <= 0 of
+:meth:`FlutterProblem.inequality_constraints` are set on every trial with ``Trial.set_constraint`` (Optuna >= 5,
+named ``envelope_M<mach>``, ``mac``, ``sdoff``), which Optuna's constrained samplers read, and kept as the user
+attribute ``constraints`` for older Optuna's ``constraints_func=`` (:func:`constraints_func`). The user attributes
+also carry ``mass_kg`` and ``feasible``.
 """
 
 from __future__ import annotations
@@ -43,6 +43,7 @@ class OptunaBatch:
         self.problem = problem
         self.study = study
         self.distributions = distributions(problem)
+        self.constraint_names = [f"envelope_M{m:g}" for m in problem.machs] + ["mac", "sdoff"]
         self.best_history: list[float] = []  # best objective told so far, after each step (kg)
 
     def ask(self, n: int) -> tuple[list[Any], np.ndarray]:
@@ -60,6 +61,9 @@ class OptunaBatch:
             trial.set_user_attr("mass_kg", None if np.isnan(ev.mass_kg[i]) else float(ev.mass_kg[i]))
             trial.set_user_attr("feasible", bool(ev.feasible[i]))
             trial.set_user_attr("constraints", g[i].tolist())
+            if hasattr(trial, "set_constraint"):  # optuna >= 5
+                for key, value in zip(self.constraint_names, g[i], strict=True):
+                    trial.set_constraint(key, float(value))
             self.study.tell(trial, float(ev.objective[i]))
 
     def step(self, n: int) -> BatchEvaluation:
@@ -72,7 +76,8 @@ class OptunaBatch:
         return ev
 
     def optimize(self, generations: int, n: int) -> Any:
-        """Run ``generations`` steps of ``n`` trials each; returns the study's best trial."""
+        """Run ``generations`` steps of ``n`` trials each; returns the trial of lowest penalty objective."""
         for _ in range(int(generations)):
             self.step(n)
-        return self.study.best_trial
+        done = [t for t in self.study.trials if t.value is not None]
+        return min(done, key=lambda t: t.value)
