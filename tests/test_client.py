@@ -221,6 +221,11 @@ def test_openmdao_component(client, wing) -> None:
     assert math.isfinite(model.get_val("min_mac")[0])
 
 
+def test_train_returns_one_rom_per_mach(client, wing) -> None:
+    rows = client.train(wing, list(MACHS), options={"reduce_order": "auto"}, timeout_s=60, progress=False)
+    assert sorted(float(r["mach"]) for r in rows) == list(MACHS)  # the ROMs of this call, once each
+
+
 def _need(module: str):
     """The optional adapter dependency ``module`` (skipped when missing outside CI; CI has the dev extra)."""
     try:

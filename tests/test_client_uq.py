@@ -47,3 +47,21 @@ def test_bad_input_names_the_field() -> None:
         uq.parse_pairs("x9=1", names, "--design")
     with pytest.raises(ValueError, match="x2: not a number"):
         uq.parse_pairs("x2=abc", names, "--design")
+
+
+def test_cap_warnings_name_the_mach_and_the_cap() -> None:
+    machs = np.array([0.87, 0.95])
+    status = np.array([["ok", "unsafe-in-range"]] * 8 + [["ok", "ok"]] * 2, dtype=object)
+    found = np.ones((10, 2), dtype=bool)
+    found[:3, 0] = False  # 30 % without flutter at M 0.87
+    warnings = uq.cap_warnings(machs, status, found)
+    assert len(warnings) == 2
+    assert warnings[0].startswith("WARNING: M 0.87: 30.0 % without flutter in the speed sweep")
+    assert "M 0.95: 80.0 % at the top of the altitude range" in warnings[1]
+    assert uq.cap_warnings(machs, np.full((10, 2), "ok", dtype=object), np.ones((10, 2), dtype=bool)) == []
+
+
+def test_default_design_is_inside_the_bounds_and_not_the_papers() -> None:
+    x = np.array([uq.DEFAULT_DESIGN[f"x{i}"] for i in range(1, 8)])
+    assert np.all((x >= LOWER) & (x <= UPPER))
+    assert uq.DEFAULT_DESIGN != uq.PAPER_OPTIMUM
