@@ -360,10 +360,10 @@ def _print_result(s: dict[str, Any]) -> None:
     print(f"optimum ({'feasible' if s['optimum_feasible'] else 'INFEASIBLE'}): "
           + ", ".join(f"{k} = {v:.4g}" for k, v in s["optimum"].items()))
     print(f"mass {s['optimum_mass_kg']:.4f} kg vs baseline {s['baseline_mass_kg']:.4f} kg: "
-          f"-{s['mass_reduction_pct']:.2f} % (paper: -{s['paper']['mass_reduction_pct']:.2f} %)")
+          f"{-s['mass_reduction_pct']:+.2f} % (paper: {-s['paper']['mass_reduction_pct']:+.2f} %)")
     print(f"{s['evaluations']} structures in {s['batch_requests']} batch requests, "
           f"{s['optimization_s']:.1f} s wall (setup {s['setup_s']:.1f} s)")
-    print(f"verification: {s['verification']['note']}")
+    print(f"verification: {s['verification']['note'] or 'none (--verify none)'}")
     print(" Mach  h_safe(m) bench(m)  V_AMS    V_PMS   err%   w_AMS   w_PMS   err%")
 
     def f(v: Any, fmt: str) -> str:

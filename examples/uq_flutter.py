@@ -31,8 +31,8 @@ from client import FlutterProblem, RomamsClient  # noqa: E402
 
 PAPER_OPTIMUM = {"x1": 0.1535, "x2": 0.6135, "x3": 0.8247, "x4": 0.0203, "x5": 1.966, "x6": 0.8787, "x7": 0.5972}
 # the default nominal design: feasible in this model with margin at every Mach (docs/optimization.md, section 4);
-# the paper's optimum is not (its safe envelope lies 4.5-5.1 km above the benchmark's here)
-DEFAULT_DESIGN = {"x1": 0.6821, "x2": 0.2477, "x3": 0.8498, "x4": 0.0300, "x5": 0.530, "x6": 0.518, "x7": 0.789}
+# the paper's optimum is not (its safe envelope lies 5.9-7.0 km above the benchmark's here)
+DEFAULT_DESIGN = {"x1": 0.61, "x2": 0.158, "x3": 0.78, "x4": 0.042, "x5": 1.249, "x6": 0.798, "x7": 0.965}
 PERCENTILES = (1, 5, 25, 50, 75, 95, 99)
 CAP_WARN_FRACTION = 0.05  # warn when more than this fraction of the samples sits at a cap at some Mach
 
@@ -152,9 +152,9 @@ def report_lines(s: dict[str, Any]) -> list[str]:
     for row, bench in zip(s["per_mach"], s["benchmark_safe_altitude_m"], strict=True):
         v, h = row["v_eas_m_s"], row["safe_altitude_m"]
         vp = v.get("percentiles", {})
-        lines.append(f"{row['mach']:5.2f} {v.get('mean', math.nan):9.4g} {v.get('std', math.nan):7.3g} "
-                     f"{vp.get('5', math.nan):8.4g} {vp.get('95', math.nan):8.4g} "
-                     f"{h.get('percentiles', {}).get('50', math.nan):12.5g} {bench:8.5g} "
+        lines.append(f"{row['mach']:5.2f} {v.get('mean', math.nan):9.1f} {v.get('std', math.nan):7.2f} "
+                     f"{vp.get('5', math.nan):8.1f} {vp.get('95', math.nan):8.1f} "
+                     f"{h.get('percentiles', {}).get('50', math.nan):12.0f} {bench:8.0f} "
                      f"{100 * row['no_flutter_fraction']:10.1f} {100 * row['at_cap_fraction']:7.1f}")
     return lines
 
