@@ -294,7 +294,7 @@ def test_openmdao_population_component_one_batch_per_generation(client, wing) ->
     from romams_client.openmdao import FlutterPopulationComponent, PopulationDEDriver
 
     prob = FlutterProblem(client, wing, machs=[MACHS[-1]], mu=10.0, run="openmdao-test")
-    model = om.Problem()
+    model = om.Problem(reports=False)
     model.model.add_subsystem("flutter", FlutterPopulationComponent(problem=prob, pop_size=ADAPTER_POP),
                               promotes=["*"])
     model.model.add_design_var("X", lower=np.tile(prob.lower, (ADAPTER_POP, 1)),
