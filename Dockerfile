@@ -17,7 +17,7 @@ COPY api ./api
 COPY worker ./worker
 COPY client ./client
 COPY migrations ./migrations
-RUN pip install . 'flower>=2.0' && (pip install --no-deps 'pyNastran==1.4.1' cpylog || true)
+RUN pip install . ./client 'flower>=2.0' && (pip install --no-deps 'pyNastran==1.4.1' cpylog || true)
 
 RUN useradd --create-home --uid 1000 romams && mkdir -p /data && chown romams /data
 USER romams

@@ -7,10 +7,11 @@ BIN := $(VENV)/bin
 
 .PHONY: install demo test lint bench docs
 
-$(BIN)/romams: pyproject.toml
+$(BIN)/romams: pyproject.toml client/pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
+	$(BIN)/pip install -q -e client/  # romams-client (import romams_client): the client as its own distribution
 	$(BIN)/pip install -q --no-deps 'pyNastran==1.4.1' 'cpylog>=1.5' || echo "pyNastran not installed: Nastran OP2/BDF support disabled"
 	touch $(BIN)/romams
 

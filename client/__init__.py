@@ -1,14 +1,30 @@
-"""Python client of the romams flutter service, for remote optimizers (imports httpx, tqdm, numpy only).
+"""Compatibility shim: ``import client`` / ``from client import ...`` re-export :mod:`romams_client`.
 
-    from client import RomamsClient, FlutterProblem
-    with RomamsClient("http://127.0.0.1:8000") as c:
-        wing = c.ensure_wing("cd", "cropped-delta")
-        problem = FlutterProblem(c, wing)
-        f = problem(X)            # X [pop, d] -> penalty objective [pop], one batch request
+The client is its own distribution, ``romams-client`` (``pip install -e client/``; ``make install`` does it),
+importable as ``romams_client``. This package keeps the older names working: ``client.RomamsClient``,
+``client.http``, ``client.problem``, ``client.errors`` and ``client.openmdao`` are the very modules of
+``romams_client`` (same classes, so isinstance checks agree). In a source checkout where ``romams-client`` is
+not installed, the code next to this file is put on ``sys.path``.
 """
 
-from client.errors import JobError, JobTimeout, RomamsError
-from client.http import RomamsClient
-from client.problem import BatchEvaluation, FlutterProblem
+from __future__ import annotations
 
-__all__ = ["BatchEvaluation", "FlutterProblem", "JobError", "JobTimeout", "RomamsClient", "RomamsError"]
+import importlib
+import sys
+from pathlib import Path
+
+try:
+    import romams_client
+except ModuleNotFoundError:  # a source checkout without `pip install -e client/`
+    sys.path.append(str(Path(__file__).resolve().parent))
+    import romams_client
+
+from romams_client import BatchEvaluation, FlutterProblem, JobError, JobTimeout, RomamsClient, RomamsError
+
+for _name in ("errors", "http", "problem", "openmdao"):
+    _mod = importlib.import_module(f"romams_client.{_name}")
+    sys.modules[f"{__name__}.{_name}"] = _mod
+    globals()[_name] = _mod
+
+__all__ = ["BatchEvaluation", "FlutterProblem", "JobError", "JobTimeout", "RomamsClient", "RomamsError",
+           "romams_client"]

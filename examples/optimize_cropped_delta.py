@@ -74,7 +74,7 @@ def prepare_service(client: RomamsClient, wing: str, machs: tuple[float, ...], s
             f"worst sample MAC {job['result']['min_mac']:.4f}")
     t0 = time.perf_counter()
     roms = client.train(wid, list(machs), solver=solver, options=train_options, progress=progress)
-    trained = ", ".join(f"{r['mach']:g}" for r in roms)
+    trained = ", ".join(f"{m:g}" for m in sorted({round(float(r["mach"]), 6) for r in roms}))  # distinct Machs
     log(f"ROMs at Mach {trained} ready ({time.perf_counter() - t0:.1f} s)")
     return wid
 
@@ -356,21 +356,22 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
 
 def _print_result(s: dict[str, Any]) -> None:
-    """Human-readable end report on stderr."""
-    log_stderr(f"\noptimum ({'feasible' if s['optimum_feasible'] else 'INFEASIBLE'}): "
-               + ", ".join(f"{k} = {v:.4g}" for k, v in s["optimum"].items()))
-    log_stderr(f"mass {s['optimum_mass_kg']:.4f} kg vs baseline {s['baseline_mass_kg']:.4f} kg: "
-               f"-{s['mass_reduction_pct']:.2f} % (paper: -{s['paper']['mass_reduction_pct']:.2f} %)")
-    log_stderr(f"{s['evaluations']} structures in {s['batch_requests']} batch requests, "
-               f"{s['optimization_s']:.1f} s (setup {s['setup_s']:.1f} s)")
-    log_stderr(f"verification: {s['verification']['note']}")
-    log_stderr(" Mach  h_safe(m) bench(m)  V_AMS    V_PMS   err%   w_AMS   w_PMS   err%")
+    """Human-readable end report on stdout (progress lines and logs go to stderr)."""
+    print(f"optimum ({'feasible' if s['optimum_feasible'] else 'INFEASIBLE'}): "
+          + ", ".join(f"{k} = {v:.4g}" for k, v in s["optimum"].items()))
+    print(f"mass {s['optimum_mass_kg']:.4f} kg vs baseline {s['baseline_mass_kg']:.4f} kg: "
+          f"{-s['mass_reduction_pct']:+.2f} % (paper: {-s['paper']['mass_reduction_pct']:+.2f} %)")
+    print(f"{s['evaluations']} structures in {s['batch_requests']} batch requests, "
+          f"{s['optimization_s']:.1f} s wall (setup {s['setup_s']:.1f} s)")
+    print(f"verification: {s['verification']['note'] or 'none (--verify none)'}")
+    print(" Mach  h_safe(m) bench(m)  V_AMS    V_PMS   err%   w_AMS   w_PMS   err%")
+
+    def f(v: Any, fmt: str) -> str:
+        return format(v, fmt) if v is not None else "-".rjust(len(format(0.0, fmt)))
     for e, t in zip(s["envelope"], s["verification"]["table8"], strict=True):
-        def f(v: Any, fmt: str) -> str:
-            return format(v, fmt) if v is not None else "-".rjust(len(format(0.0, fmt)))
-        log_stderr(f" {e['mach']:.2f} {f(e['safe_altitude_m'], '9.0f')} {f(e['benchmark_safe_altitude_m'], '8.0f')} "
-                   f"{f(t['v_ams'], '7.2f')} {f(t['v_pms'], '7.2f')} {f(t['v_error_pct'], '6.2f')} "
-                   f"{f(t['omega_ams'], '7.1f')} {f(t['omega_pms'], '7.1f')} {f(t['omega_error_pct'], '6.2f')}")
+        print(f" {e['mach']:.2f} {f(e['safe_altitude_m'], '9.0f')} {f(e['benchmark_safe_altitude_m'], '8.0f')} "
+              f"{f(t['v_ams'], '7.2f')} {f(t['v_pms'], '7.2f')} {f(t['v_error_pct'], '6.2f')} "
+              f"{f(t['omega_ams'], '7.1f')} {f(t['omega_pms'], '7.1f')} {f(t['omega_error_pct'], '6.2f')}")
 
 
 if __name__ == "__main__":

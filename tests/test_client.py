@@ -222,3 +222,95 @@ def test_openmdao_component(client, wing) -> None:
     assert model.get_val("envelope_margin").shape == (2,)
     assert model.get_val("feasible")[0] == float(ev.feasible[0])
     assert math.isfinite(model.get_val("min_mac")[0])
+
+
+def test_train_returns_one_rom_per_mach(client, wing) -> None:
+    rows = client.train(wing, list(MACHS), options={"reduce_order": "auto"}, timeout_s=60, progress=False)
+    assert sorted(float(r["mach"]) for r in rows) == list(MACHS)  # the ROMs of this call, once each
+
+
+def _need(module: str):
+    """The optional adapter dependency ``module`` (skipped when missing outside CI; CI has the dev extra)."""
+    try:
+        return __import__(module)
+    except ImportError:
+        if CI:
+            raise
+        pytest.skip(f"{module} is not installed")
+
+
+def _batch_jobs(client, prob) -> int:
+    """Server side: how many batch jobs stored the designs of ``prob``'s run (one per batch request)."""
+    rows = client.run_evaluations(prob.run_id)["evaluations"]
+    assert len(rows) == prob.n_evaluations
+    return len({r["job_id"] for r in rows})
+
+
+ADAPTER_POP = 6  # above the service's batch_sync_max (4): every generation is one 202 batch job
+
+
+def test_optuna_ask_tell_one_batch_per_generation(client, wing) -> None:
+    optuna = _need("optuna")
+    from romams_client.optuna import OptunaBatch, constraints_func
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    prob = FlutterProblem(client, wing, machs=[MACHS[-1]], mu=10.0, run="optuna-test")
+    old = {} if hasattr(optuna.trial.Trial, "set_constraint") else {"constraints_func": constraints_func}
+    sampler = optuna.samplers.NSGAIISampler(population_size=ADAPTER_POP, seed=3, **old)
+    batch = OptunaBatch(prob, optuna.create_study(sampler=sampler))
+    evs = [batch.step(ADAPTER_POP)]
+    best = batch.optimize(generations=1, n=ADAPTER_POP)
+    evs.append(prob.history[-1])
+    assert prob.n_calls == 2 and _batch_jobs(client, prob) == 2  # one batch request per ask of n trials
+    trials = batch.study.trials
+    assert len(trials) == 2 * ADAPTER_POP and all(t.state == optuna.trial.TrialState.COMPLETE for t in trials)
+    told = np.array([t.value for t in trials])
+    assert told == pytest.approx(np.concatenate([e.objective for e in evs]), rel=1e-12)
+    feasible = np.concatenate([e.feasible for e in evs])
+    g = np.array([constraints_func(t) for t in trials])
+    assert np.array_equal(np.all(g <= 0, axis=1), feasible)  # G <= 0 exactly for the feasible designs
+    assert batch.best_history[1] <= batch.best_history[0] == pytest.approx(evs[0].objective.min(), rel=1e-12)
+    assert best.value == pytest.approx(told.min(), rel=1e-12) and best.user_attrs["feasible"] == feasible[told.argmin()]
+    if feasible.any():  # optuna's own best trial is the best feasible one
+        assert batch.study.best_value == pytest.approx(told[feasible].min(), rel=1e-12)
+
+
+def test_pymoo_vectorized_problem_one_batch_per_generation(client, wing) -> None:
+    _need("pymoo")
+    from pymoo.algorithms.soo.nonconvex.ga import GA
+    from pymoo.optimize import minimize
+
+    from romams_client.pymoo import FlutterPymooProblem
+
+    prob = FlutterProblem(client, wing, machs=[MACHS[-1]], mu=10.0, run="pymoo-test")
+    res = minimize(FlutterPymooProblem(prob), GA(pop_size=ADAPTER_POP, eliminate_duplicates=True), ("n_gen", 2),
+                   seed=1, verbose=False)
+    assert prob.n_calls == 2 and _batch_jobs(client, prob) == 2  # initial population + one offspring population
+    assert [e.x.shape[0] for e in prob.history] == [ADAPTER_POP, ADAPTER_POP]
+    first_best = prob.history[0].objective.min()
+    everything = np.concatenate([e.objective for e in prob.history])
+    assert res.F[0] <= first_best and res.F[0] == pytest.approx(everything.min(), rel=1e-12)
+
+
+def test_openmdao_population_component_one_batch_per_generation(client, wing) -> None:
+    om = _need("openmdao.api").api
+    from romams_client.openmdao import FlutterPopulationComponent, PopulationDEDriver
+
+    prob = FlutterProblem(client, wing, machs=[MACHS[-1]], mu=10.0, run="openmdao-test")
+    model = om.Problem(reports=False)
+    model.model.add_subsystem("flutter", FlutterPopulationComponent(problem=prob, pop_size=ADAPTER_POP),
+                              promotes=["*"])
+    model.model.add_design_var("X", lower=np.tile(prob.lower, (ADAPTER_POP, 1)),
+                               upper=np.tile(prob.upper, (ADAPTER_POP, 1)))
+    model.model.add_objective("objective")
+    model.driver = PopulationDEDriver(max_gen=1, seed=2)
+    model.setup()
+    model.run_driver()
+    drv = model.driver
+    assert prob.n_calls == 2 and _batch_jobs(client, prob) == 2  # one request per generation, not per design
+    assert drv.iter_count == 2 and len(drv.history) == 2
+    gen0, gen1 = (e.objective for e in prob.history)
+    assert drv.history[0] == pytest.approx(gen0.min(), rel=1e-12)
+    assert drv.best_f <= drv.history[0] and drv.best_f == pytest.approx(min(gen0.min(), gen1.min()), rel=1e-12)
+    assert model.get_val("objective") == pytest.approx(gen1, rel=1e-12)  # the model holds the last population
+    assert np.all((drv.best_x >= prob.lower) & (drv.best_x <= prob.upper))

@@ -47,3 +47,51 @@ def test_bad_input_names_the_field() -> None:
         uq.parse_pairs("x9=1", names, "--design")
     with pytest.raises(ValueError, match="x2: not a number"):
         uq.parse_pairs("x2=abc", names, "--design")
+
+
+def test_cap_warnings_name_the_mach_and_the_cap() -> None:
+    machs = np.array([0.87, 0.95])
+    status = np.array([["ok", "unsafe-in-range"]] * 8 + [["ok", "ok"]] * 2, dtype=object)
+    found = np.ones((10, 2), dtype=bool)
+    found[:3, 0] = False  # 30 % without flutter at M 0.87
+    warnings = uq.cap_warnings(machs, status, found)
+    assert len(warnings) == 2
+    assert warnings[0].startswith("WARNING: M 0.87: 30.0 % without flutter in the speed sweep")
+    assert "M 0.95: 80.0 % at the top of the altitude range" in warnings[1]
+    assert uq.cap_warnings(machs, np.full((10, 2), "ok", dtype=object), np.ones((10, 2), dtype=bool)) == []
+
+
+def test_default_design_is_inside_the_bounds_and_not_the_papers() -> None:
+    x = np.array([uq.DEFAULT_DESIGN[f"x{i}"] for i in range(1, 8)])
+    assert np.all((x >= LOWER) & (x <= UPPER))
+    assert uq.DEFAULT_DESIGN != uq.PAPER_OPTIMUM
+
+
+def _de_example():
+    """examples/optimize_cropped_delta.py as a module."""
+    sp = importlib.util.spec_from_file_location("optimize_cropped_delta", ROOT / "examples/optimize_cropped_delta.py")
+    mod = importlib.util.module_from_spec(sp)
+    sp.loader.exec_module(mod)
+    return mod
+
+
+def test_examples_print_results_on_stdout_only(capsys) -> None:
+    env = [{"mach": 0.87, "safe_altitude_m": 9000.0, "benchmark_safe_altitude_m": 9500.0}]
+    table8 = [{k: None for k in ("v_ams", "v_pms", "v_error_pct", "omega_ams", "omega_pms", "omega_error_pct")}]
+    de = {"optimum_feasible": True, "optimum": {"x1": 0.5}, "optimum_mass_kg": 0.25, "baseline_mass_kg": 0.24,
+          "mass_reduction_pct": -4.1667, "paper": {"mass_reduction_pct": 28.46}, "evaluations": 18,
+          "batch_requests": 3, "optimization_s": 7.0, "setup_s": 0.2, "envelope": env,
+          "verification": {"note": "", "table8": table8}}
+    _de_example()._print_result(de)
+    out, err = capsys.readouterr()
+    assert err == "" and "mass 0.2500 kg vs baseline 0.2400 kg: +4.17 % (paper: -28.46 %)" in out
+    assert "verification: none" in out
+    stats = {"n": 4, "mean": 170.0, "std": 4.5, "percentiles": {"5": 163.0, "50": 170.0, "95": 177.0}}
+    uq_summary = {"nominal": {"x1": 0.61}, "nominal_result": {"feasible": True, "mass_kg": 0.2745}, "samples": 4,
+                  "wall_s": 1.0, "designs_per_s": 4.0, "batch_requests": 1, "mass_kg": {"mean": 0.27, "std": 0.004},
+                  "probability_constraint_violated": 0.0, "benchmark_safe_altitude_m": [12997.0],
+                  "per_mach": [{"mach": 0.91, "v_eas_m_s": stats, "safe_altitude_m": stats,
+                                "no_flutter_fraction": 0.0, "at_cap_fraction": 0.25}]}
+    lines = uq.report_lines(uq_summary)
+    assert lines[0].endswith("(feasible, mass 0.2745 kg)") and lines[3] == "P(constraint violated) = 0.000"
+    assert lines[-1].split() == ["0.91", "170.0", "4.50", "163.0", "177.0", "170", "12997", "0.0", "25.0"]

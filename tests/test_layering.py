@@ -5,7 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-FORBIDDEN = {"api", "worker", "romams", "client", "sqlalchemy", "celery", "fastapi", "redis", "kombu", "matplotlib"}
+FORBIDDEN = {"api", "worker", "romams", "client", "romams_client", "sqlalchemy", "celery", "fastapi", "redis", "kombu",
+             "matplotlib"}
 CORE = Path(__file__).resolve().parents[1] / "romams_core"
 
 

@@ -6,6 +6,13 @@ form), ``envelope_margin`` (m, one per Mach: baseline safe altitude minus the de
 feasible), ``v_flutter`` (m/s per Mach), ``min_mac``, ``sdoff`` and ``feasible`` (0/1). Each compute is
 one HTTP evaluation. Derivatives: by finite differences when ``fd_step`` is set (each one costs a
 request), otherwise none (for gradient-free drivers: DOE, genetic, differential evolution).
+
+Batched: ``FlutterPopulationComponent(problem=..., pop_size=n)`` takes the whole population ``X`` [n, d] as
+one input and answers ``objective``, ``mass``, ``feasible``, ``min_mac``, ``sdoff`` [n] and
+``envelope_margin``, ``v_flutter`` [n, n_mach] with one batch request per compute. OpenMDAO's own
+``SimpleGADriver`` / ``DifferentialEvolutionDriver`` run the model once per design (their parallel mode needs MPI
+and still runs one design per model copy), so ``PopulationDEDriver`` drives the population matrix instead:
+DE/rand/1/bin with greedy selection, one ``run_model`` (= one request) per generation.
 """
 
 from __future__ import annotations
@@ -22,7 +29,7 @@ def _build() -> type:
     import numpy as np
     import openmdao.api as om
 
-    from client.problem import FlutterProblem
+    from romams_client.problem import FlutterProblem
 
     class FlutterComponent(om.ExplicitComponent):  # type: ignore[misc]
         """Flutter-constrained mass of one structure, evaluated by the romams service."""
@@ -66,7 +73,11 @@ def _build() -> type:
 
 
 def __getattr__(name: str) -> Any:
-    """``client.openmdao.FlutterComponent`` imports openmdao on first access."""
+    """``FlutterComponent``, ``FlutterPopulationComponent``, ``PopulationDEDriver`` import openmdao on first access."""
     if name == "FlutterComponent":
         return _build()
+    if name in ("FlutterPopulationComponent", "PopulationDEDriver"):
+        from romams_client import openmdao_batch
+
+        return getattr(openmdao_batch, name)
     raise AttributeError(name)

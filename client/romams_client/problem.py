@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from client.errors import RomamsError
-from client.http import RomamsClient, WingRef
+from romams_client.errors import RomamsError
+from romams_client.http import RomamsClient, WingRef
 
 
 @dataclass
@@ -37,6 +37,15 @@ class BatchEvaluation:
     min_mac: np.ndarray  # [n] worst mode-fit MAC
     machs: np.ndarray  # [n_mach]
     errors: list[str | None] = field(default_factory=list)  # per design: why it could not be evaluated
+    # [n, n_mach] the service's envelope status: "ok", or the safe altitude sits at a cap of the searched altitude
+    # range: "safe-everywhere" (range bottom; also without flutter in the speed sweep), "unsafe-in-range" (range
+    # top); "" where the service gave none
+    envelope_status: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=object))
+    flutter_found: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=bool))  # [n, n_mach]
+
+    def at_cap(self) -> np.ndarray:
+        """[n, n_mach] True where the safe altitude sits at a cap of the searched range (not a flutter result)."""
+        return (self.envelope_status != "ok") & (self.envelope_status != "")
 
     def constraints(self) -> dict[str, np.ndarray]:
         """Constraint arrays by name: mass, envelope margin per Mach, sdoff, min_mac, feasible."""
@@ -170,6 +179,8 @@ class FlutterProblem:
         vf = np.full((n, k), math.nan)
         ve = np.full((n, k), math.nan)
         wf = np.full((n, k), math.nan)
+        status = np.full((n, k), "", dtype=object)
+        found = np.zeros((n, k), dtype=bool)
         sdoff = np.zeros(n, dtype=bool)
         min_mac = np.full(n, math.nan)
         errors: list[str | None] = []
@@ -187,6 +198,8 @@ class FlutterProblem:
                     vf[i, j] = _num(p.get("v_flutter_m_s"))
                     ve[i, j] = _num(p.get("v_eas_m_s"))
                     wf[i, j] = _num(p.get("omega_flutter_rad_s"))
+                    status[i, j] = str(p.get("envelope_status") or "")
+                    found[i, j] = bool(p.get("flutter_found", np.isfinite(vf[i, j])))
             if r.get("envelope_margin_m") is not None:
                 margin[i] = np.asarray(r["envelope_margin_m"], dtype=float)
             if r.get("envelope_ok") is None:  # the wing has no baseline: nothing to compare with
@@ -206,13 +219,25 @@ class FlutterProblem:
             c = np.where(feasible, 0.0, 1.0 + excess_km * (~env_ok) + mac_deficit + n_sdoff)
         objective = np.where(np.isfinite(mass), np.nan_to_num(mass) + self.mu * c, 2.0 * self.mu * (1 + c))
         return BatchEvaluation(pop.copy(), objective, mass, feasible, env_ok, margin, alt, vf, ve, wf, sdoff, min_mac,
-                               self.machs.copy(), errors)
+                               self.machs.copy(), errors, status, found)
 
     def __call__(self, x: Any) -> np.ndarray | float:
         """Penalty objective (kg): [pop] for X [pop, d], a float for one design [d]."""
         _, single = self._as_population(x)
         obj = self.evaluate(x).objective
         return float(obj[0]) if single else obj
+
+    def inequality_constraints(self, ev: BatchEvaluation) -> np.ndarray:
+        """Constraints of a batch as G [n, n_mach + 2] <= 0 (pymoo's and Optuna's convention), feasible iff all hold.
+
+        Columns: per Mach the envelope excess ``-margin - envelope_tol_m`` (m); the MAC deficit
+        ``mac_threshold - min_mac``; the SDOFF flag (1 when present). A design the service could not evaluate gets
+        a MAC deficit above 1, one without a baseline to compare with an envelope column of 0.
+        """
+        margin = ev.envelope_margin_m
+        env = np.where(np.isnan(margin), np.where(ev.envelope_ok, 0.0, 1e3)[:, None], -margin - self.envelope_tol_m)
+        mac = self.mac_threshold - np.nan_to_num(ev.min_mac, nan=-1.0)
+        return np.column_stack([env, mac, ev.sdoff.astype(float)])
 
     def constraints(self, x: Any) -> dict[str, np.ndarray]:
         """mass [n], envelope_margin_m [n, n_mach], envelope_ok, sdoff, min_mac and feasible [n] of X."""

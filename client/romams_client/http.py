@@ -16,7 +16,7 @@ from urllib.parse import quote
 import httpx
 import numpy as np
 
-from client.errors import JobError, JobTimeout, RomamsError
+from romams_client.errors import JobError, JobTimeout, RomamsError
 
 #: statuses that mean "try again later" (the service or a proxy in front of it is momentarily unavailable)
 RETRY_STATUSES = frozenset({502, 503, 504})
@@ -291,13 +291,17 @@ class RomamsClient:
 
     def train(self, wing: WingRef, machs: float | Sequence[float], *, timeout_s: float | None = None,
               progress: bool = True, **kw: Any) -> list[dict[str, Any]]:
-        """Start training at ``machs`` and wait for every job; returns the wing's ROM rows for these Machs."""
+        """Start training at ``machs`` and wait for every job; returns the ROM rows this call trained or found."""
         items = self.start_training(wing, machs, **kw)
         pending = [i for i in items if i.get("job_id") and not i.get("rom_id")]
         if pending:
             self.wait_jobs(pending, timeout_s, progress=progress, desc="training")
         wanted = {round(float(i["mach"]), 6) for i in items}
-        return [r for r in self.list_roms(wing, kw.get("basis_id")) if round(float(r["mach"]), 6) in wanted]
+        rows = [r for r in self.list_roms(wing, kw.get("basis_id")) if round(float(r["mach"]), 6) in wanted]
+        rom_ids = {i["rom_id"] for i in items if i.get("rom_id") is not None}
+        job_ids = {str(i["job_id"]) for i in items if i.get("job_id")}
+        mine = [r for r in rows if r["id"] in rom_ids or str(r.get("job_id")) in job_ids]
+        return mine or rows  # the ROMs of this call (not older bases' or other solvers' at the same Machs)
 
     # ---- flutter ----------------------------------------------------------------------------------
     def _job_result(self, body: dict[str, Any], timeout_s: float | None, progress: bool) -> Any:
