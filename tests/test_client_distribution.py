@@ -59,7 +59,9 @@ class Block(importlib.abc.MetaPathFinder):
         if name.split('.')[0] in FORBIDDEN:
             raise ImportError('blocked: ' + name)
 sys.meta_path.insert(0, Block())
-sys.path[:] = [{str(ROOT / 'client')!r}] + [p for p in sys.path if p and not p.startswith({str(ROOT)!r})]
+# the repository's own directories leave the path; the interpreter's (a .venv inside the clone) stay
+sys.path[:] = [{str(ROOT / 'client')!r}] + [p for p in sys.path
+                                           if p and (p.startswith(sys.prefix) or not p.startswith({str(ROOT)!r}))]
 import romams_client, romams_client.http, romams_client.problem, romams_client.errors
 import romams_client.openmdao, romams_client.optuna, romams_client.pymoo
 assert romams_client.__file__.startswith({str(ROOT / 'client')!r}), romams_client.__file__
