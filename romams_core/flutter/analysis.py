@@ -9,7 +9,10 @@ from typing import Any
 
 import numpy as np
 
+from romams_core.errors import InputError
+
 from .batch import run_one, run_searches
+from .continuation import ContinuationTracker
 from .crossing import make_bracket, refine_crossing
 from .inputs import check_flutter_inputs, check_search_options
 from .model import Model, make_model
@@ -32,6 +35,10 @@ class _Search:
     track_weight: float
     rtol: float
     k_band: float | None
+    tracking: str = "continuation"
+
+
+TRACKERS = {"continuation": ContinuationTracker, "eigen": Tracker}
 
 
 def flutter_analysis(omega: np.ndarray, aero: Any, c_ref: float, mach: float, **options: Any) -> FlutterResult:
@@ -70,6 +77,7 @@ def prepare_search(
     v_max: float | None = None, q_max: float | None = None,
     altitude_range_m: tuple[float, float] = (0.0, 20_000.0), n_points: int = 12, sdoff_share: float = 0.9,
     sdoff_q_factor: float = 1.1, track_weight: float = 0.5, rtol: float = 1e-4, k_band: float | None = None,
+    tracking: str = "continuation",
 ) -> _Search:
     """The validated search of ``flutter_analysis`` (its docstring; InputError naming the field)."""
     om, zt, c_ref, mach = check_flutter_inputs(omega, zeta, c_ref, mach, sweep)
@@ -79,14 +87,16 @@ def prepare_search(
     sw = make_sweep(sweep, mach, om, c_ref, rho_ref, a_ref, v_max, q_max, altitude_range_m)
     head: dict[str, Any] = dict(mach=mach, sweep=sweep, coupling=coupling, rho_ref=rho_ref, a_ref=a_ref,
                                 c_ref=c_ref, dt_star=model.dt_star, altitude_ref_m=h_ref)
+    if tracking not in TRACKERS:
+        raise InputError("tracking", f"must be one of {sorted(TRACKERS)}, got {tracking!r}")
     return _Search(model, sw, head, int(n_points), float(sdoff_share), float(sdoff_q_factor), track_weight,
-                   float(rtol), None if k_band is None else float(k_band))
+                   float(rtol), None if k_band is None else float(k_band), tracking)
 
 
 def flutter_search(se: _Search) -> Solve[FlutterResult]:
     """The search (a generator of eigen requests, batch.py) -> FlutterResult."""
     sw, om = se.sweep, se.model.omega
-    tracker = Tracker(se.model, sw, se.track_weight)
+    tracker = TRACKERS[se.tracking](se.model, sw, se.track_weight)
     path = yield from tracker.track_search(sw.grid(se.n_points))
     head: dict[str, Any] = dict(se.head, **_vg_data(sw, path), modal_share=np.zeros(om.size),
                                 lag_root_flagged=path.lag)

@@ -20,7 +20,7 @@ import numpy as np
 
 from .eigen import EigData, EigRequest, eig_batch, struct_vectors
 from .eigen import _tustin_matrices as tustin_matrices
-from .newton import Request, RootRequest, newton_roots
+from .newton import Request, RootRequest, RootsRequest, newton_roots
 
 T = TypeVar("T")
 
@@ -100,16 +100,28 @@ def _answer_roots(reqs: Sequence[RootRequest]) -> list[complex | None]:
 
 
 def answer(reqs: Sequence[Request]) -> list[Any]:
-    """The answers to one round of requests (EigData for an EigRequest, complex or None for a RootRequest)."""
+    """The answers to one round of requests (EigData for an EigRequest, complex or None for a RootRequest, a list
+    of those for a RootsRequest); all Newton roots of the round are iterated together."""
     eig_i = [i for i, r in enumerate(reqs) if isinstance(r, EigRequest)]
-    root_i = [i for i, r in enumerate(reqs) if isinstance(r, RootRequest)]
     out: list[Any] = [None] * len(reqs)
     if eig_i:
         for i, e in zip(eig_i, _answer_eigs([reqs[i] for i in eig_i]), strict=True):  # type: ignore[misc]
             out[i] = e
-    if root_i:
-        for i, s in zip(root_i, _answer_roots([reqs[i] for i in root_i]), strict=True):  # type: ignore[misc]
-            out[i] = s
+    flat: list[RootRequest] = []
+    owners: list[tuple[int, int]] = []  # (request index, number of roots; -1: a single RootRequest)
+    for i, r in enumerate(reqs):
+        if isinstance(r, RootRequest):
+            flat.append(r)
+            owners.append((i, -1))
+        elif isinstance(r, RootsRequest):
+            flat.extend(r.reqs)
+            owners.append((i, len(r.reqs)))
+    if flat:
+        roots = _answer_roots(flat)
+        pos = 0
+        for i, n in owners:
+            out[i] = roots[pos] if n < 0 else roots[pos:pos + n]
+            pos += 1 if n < 0 else n
     STATS.rounds += 1
     return out
 

@@ -31,7 +31,14 @@ class RootRequest:
     scale: float
 
 
-Request = EigRequest | RootRequest
+@dataclass
+class RootsRequest:
+    """Several Newton roots at once (e.g. the k branches of a continuation step); answered by a list of roots."""
+
+    reqs: list[RootRequest]
+
+
+Request = EigRequest | RootRequest | RootsRequest
 
 
 def newton_root(m: Model, vc: float, q: float, s0: complex, scale: float, maxit: int = 30) -> complex:

@@ -1,0 +1,179 @@
+"""Continuation of the structural branches in p by Newton on det T(s), with full eigen-solves only where needed.
+
+``ContinuationTracker`` builds the same ``tracking.Path`` as ``Tracker`` (the coarse points, the states, the first
+unstable point), but reaches the points by predictor-corrector steps instead of one eigen-solve per point:
+
+- predictor: the quadratic (or, with less history, linear) extrapolation of each branch's eigenvalue in the
+  continuation coordinate x (``Sweep.x``) through the last points of the path;
+- corrector: Newton on det T(s) from the prediction for the k branches together (one ``newton.RootsRequest``,
+  iterated with the requests of every other search of the round, ``batch.py``); the structural vectors, content and
+  lag flags of the k roots come from the null vectors of T(s) (``eigen.struct_vectors``), no eigen-solve;
+- a step is accepted when every branch converged to its own root (no two branches on the same root), each root
+  lies within ``PRED_TOL`` (relative) of its prediction, keeps MAC >= ``MAC_STEP`` with the previous vector, is no
+  lag root and changes its structural content by less than ``tracking.CONTENT_JUMP``; before the first unstable
+  point also the damping-hump test ``tracking._may_cross`` must pass (a crossing between two stable points is
+  not skipped), down to the sweep's minimum step. The step grows (x 2) when the corrector lands close to the
+  predictor and shrinks (/ 4) on a rejected step;
+- a full eigen-solve resolves what Newton cannot: a step rejected at the smallest Newton step ``H_MIN`` (of the
+  natural range) is taken by ``Tracker._advance`` (Hungarian assignment of the full spectrum, its split rules), and
+  at the fixed checkpoints ``CHECKPOINTS`` (fractions of the sweep's range, independent of the coarse grid) the
+  Newton state is compared with the assignment of a full eigen-solve; when they differ the full-spectrum step
+  replaces it (a root that entered between the branches, or a branch that slid onto another root).
+
+Models without the diagonalized Tustin form (zero-order hold, defective aero matrix) have no det T(s) Newton and
+use ``Tracker`` unchanged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .eigen import struct_vectors
+from .newton import RootRequest, RootsRequest
+from .tracking import G_UNSTABLE, Branches, Path, Solve, Tracker, _content_jump, _may_cross, assign
+
+PRED_TOL = 0.05  # corrector farther than this (relative to max(|s|, omega_j)) from the predictor: step rejected
+GROW_TOL = 0.005  # corrector within this of the predictor: next step doubled
+MAC_STEP = 0.9  # smallest MAC of a branch's vector with its previous one on an accepted Newton step
+SAME_ROOT = 1e-6  # two branches closer than this (relative) sit on the same root
+H_MIN = 2.0**-9  # smallest Newton step (of the natural range) before a full eigen-solve resolves the step
+CHECKPOINTS = (0.25, 0.5, 1.0)  # fractions of the sweep range where the Newton state is checked by a full solve
+MATCH_TOL = 1e-6  # Newton root and full-spectrum assignment agree to this (relative)
+
+
+HUMP = "hump"  # rejection of a step by the damping-hump test (shrinks to the sweep's minimum step, no eigen-solve)
+
+
+class ContinuationTracker(Tracker):
+    """Branch continuation by Newton on det T(s) (module docstring); ``Tracker`` for models without it."""
+
+    newton_last = False  # the path's last point came from a Newton step (not yet checked by a full solve)
+
+    def track_search(self, grid: np.ndarray) -> Solve[Path]:
+        """The path over the coarse grid (``Tracker.track_search``'s points and result), by continuation."""
+        m = self.m
+        if m.coupling != "tustin" or m.lam_a is None:
+            return (yield from super().track_search(grid))
+        sw = self.sweep
+        start = sw.start_points()
+        start = start[start < grid[0]]
+        span = sw.p_end - sw.p_start
+        checks = sw.p_start + span * np.array(CHECKPOINTS)
+        pts = np.union1d(np.concatenate([start, grid]), checks)
+        coarse = set(grid.tolist())
+        check_set = set(checks.tolist())
+        p0 = np.array([sw.p_start])
+        path = Path([sw.p_start], [self.start()], [float(sw.x(p0, *sw.cond(p0))[0])])
+        h = float(pts[0] - sw.p_start)
+        for p_t in pts.tolist():
+            h = yield from self._continue_to(path, p_t, h)
+            if p_t in check_set:
+                yield from self._checkpoint(path)
+            if p_t in coarse:
+                path.coarse.append(len(path.p) - 1)
+        return path
+
+    def _continue_to(self, path: Path, p_t: float, h: float) -> Solve[float]:
+        """Advance the path to p_t by Newton steps (first step h); returns the next step length."""
+        sw = self.sweep
+        while path.p[-1] < p_t:
+            p0 = path.p[-1]
+            p1 = p_t if p0 + 1.25 * h >= p_t else p0 + h
+            res = yield from self._newton_point(path, p1)
+            if isinstance(res, tuple):
+                new, x1, err = res
+                self._append(path, p1, x1, new)
+                self.newton_last = True
+                h = (p1 - p0) * (2.0 if err < GROW_TOL else 1.0)
+                continue
+            if p1 - p0 > H_MIN * sw.scale_at(p0) or res == HUMP:
+                h = 0.25 * (p1 - p0)
+                continue
+            e1 = yield from self.eig(np.array([p1]))  # Newton cannot resolve the step: full spectrum
+            yield from self._advance(path, p1, e1, 0)
+            self.newton_last = False
+            h = p1 - p0
+        return h
+
+    def _append(self, path: Path, p1: float, x1: float, new: Branches) -> None:
+        """Append an accepted point; mark the first unstable point."""
+        careful = path.first_unstable is None
+        path.p.append(p1)
+        path.x.append(x1)
+        path.states.append(new)
+        if careful and np.any(path.g(-1) > G_UNSTABLE):
+            path.first_unstable = len(path.p) - 1
+
+    def _predict(self, path: Path, x1: float) -> np.ndarray:
+        """Predicted branch eigenvalues [k] at coordinate x1 (quadratic / linear extrapolation in x)."""
+        xs, st = path.x, path.states
+        n = min(len(xs), 3)
+        if n == 1:
+            return st[-1].lam.copy()
+        xa = np.array(xs[-n:])
+        la = np.array([s.lam for s in st[-n:]])
+        out = np.zeros(la.shape[1], complex)
+        for i in range(n):  # Lagrange basis through the last n points
+            w = np.prod([(x1 - xa[j]) / (xa[i] - xa[j]) for j in range(n) if j != i])
+            out += w * la[i]
+        return out
+
+    def _newton_point(self, path: Path, p1: float) -> Solve[tuple[Branches, float, float] | str | None]:
+        """(state, x1, predictor error) of the Newton corrector at p1; None when the step is ambiguous, ``HUMP``
+        when only the damping-hump test rejects it."""
+        m, sw = self.m, self.sweep
+        v, rho = sw.cond(np.array([p1]))
+        q = 0.5 * rho * v**2
+        x1 = float(sw.x(np.array([p1]), v, rho)[0])
+        pred = self._predict(path, x1)
+        prev = path.states[-1]
+        scale = np.maximum(np.abs(prev.lam), m.omega)
+        vc = float(v[0]) / m.c_ref
+        roots = yield RootsRequest([RootRequest(m, vc, float(q[0]), complex(s0), float(sc))
+                                    for s0, sc in zip(pred.tolist(), scale.tolist(), strict=True)])
+        if any(s is None for s in roots):
+            return None
+        lam = np.array(roots, complex)
+        err = float(np.max(np.abs(lam - pred) / scale))
+        sep = np.abs(lam[:, None] - lam[None, :]) / scale[:, None] + np.eye(lam.size)
+        if err > PRED_TOL or sep.min() < SAME_ROOT:
+            return None
+        sv = struct_vectors(m, lam[None, :], v, q)
+        if sv is None or sv[2][0].any():
+            return None
+        vec, content = sv[0][0], sv[1][0]
+        if float(np.min(np.abs(np.sum(prev.vec.conj() * vec, axis=0)) ** 2)) < MAC_STEP:
+            return None
+        new = Branches(lam, vec, prev.lag, content)
+        if _content_jump(prev, new, m.omega):
+            return None
+        if path.first_unstable is None and self._hump(path, p1, x1, new):
+            return HUMP
+        return new, x1, err
+
+    def _hump(self, path: Path, p1: float, x1: float, new: Branches) -> bool:
+        """True when a branch's damping could cross zero inside the step (``_may_cross``) and the step can shrink."""
+        if len(path.p) < 3 or p1 - path.p[-1] <= self.sweep.min_step(path.p[-1]):
+            return False
+        g_new = 2.0 * new.lam.real / np.abs(new.lam)
+        xs = (path.x[-2], path.x[-1], x1)
+        return _may_cross(xs, np.array([path.g(-2), path.g(-1), g_new]))
+
+    def _checkpoint(self, path: Path) -> Solve[None]:
+        """Check the last (Newton) point against the full spectrum; on disagreement the full-spectrum step wins."""
+        if len(path.p) < 2 or not self.newton_last:
+            return
+        self.newton_last = False
+        p1, x1 = path.p[-1], path.x[-1]
+        e1 = yield from self.eig(np.array([p1]))
+        st = path.states.pop()
+        path.p.pop()
+        path.x.pop()
+        if path.first_unstable is not None and path.first_unstable >= len(path.p):
+            path.first_unstable = None
+        full, check = assign(path.states[-1], e1, self.weight, self.m.omega)
+        scale = np.maximum(np.abs(st.lam), self.m.omega)
+        if not check.ambiguous and np.max(np.abs(full.lam - st.lam) / scale) < MATCH_TOL:
+            self._append(path, p1, x1, st)
+            return
+        yield from self._advance(path, p1, e1, 0)
