@@ -3,7 +3,8 @@
 A search is written as a generator (``analysis.flutter_search``, ``tracking.Tracker``, ``crossing``): where it
 needs eigen-data it yields an ``eigen.EigRequest`` (sweep points of its model) or a ``newton.RootRequest`` (a
 Newton root of det T(s)) and receives the answer. ``run_searches`` drives any number of such generators in
-lockstep rounds: every round collects the one pending request of each search, stacks all coupled matrices of
+lockstep rounds: every round collects the one pending request of each search (eigen requests wait while some
+search still asks for Newton roots, so that they share calls), stacks all coupled matrices of
 one size into a single ``numpy.linalg.eigvals`` / ``eig`` call and all Newton requests of one shape into one
 batched Newton iteration, and sends each search its part. A search that needs extra refinement just takes more
 rounds; the others finish and leave the batch. A single search is the batch of one (``run_one``), so the one-at-
@@ -88,10 +89,11 @@ def _with_vectors(r: EigRequest, lam: np.ndarray) -> EigData:
 def _answer_roots(reqs: Sequence[RootRequest]) -> list[complex | None]:
     """Newton roots of every request; requests of one shape (k modes, number of aero poles) iterated together."""
     out: list[complex | None] = [None] * len(reqs)
-    groups: dict[tuple[int, int], list[int]] = {}
-    for i, r in enumerate(reqs):
-        assert r.model.lam_a is not None
-        groups.setdefault((r.model.k, r.model.lam_a.size), []).append(i)
+    groups: dict[tuple[int, int, bool], list[int]] = {}
+    for i, r in enumerate(reqs):  # diagonalized aero models by (k, number of poles), the others by (k, na)
+        diag = r.model.lam_a is not None
+        groups.setdefault((r.model.k, r.model.lam_a.size if r.model.lam_a is not None else r.model.na, diag),
+                          []).append(i)
     for idx in groups.values():
         for i, s in zip(idx, newton_roots([reqs[i] for i in idx]), strict=True):
             out[i] = s
@@ -133,10 +135,20 @@ def run_searches(gens: Sequence[Generator[Request, Any, T]]) -> list[T]:
     for i, g in enumerate(gens):
         _advance(g, i, None, pending, results, first=True)
     while pending:
-        idx = list(pending)
+        idx = _round(pending)
         for i, a in zip(idx, answer([pending[i] for i in idx]), strict=True):
             _advance(gens[i], i, a, pending, results)
     return results
+
+
+def _round(pending: dict[int, Request]) -> list[int]:
+    """The searches answered in the next round: those asking for Newton roots while any does, else all.
+
+    Eigen requests wait until every search needs one (or has finished), so that the searches' full eigen-solves
+    share LAPACK calls; an answer does not depend on the round it is given in, so the results do not change.
+    """
+    roots = [i for i, r in pending.items() if not isinstance(r, EigRequest)]
+    return roots if roots else list(pending)
 
 
 def _advance(g: Generator[Request, Any, Any], i: int, value: Any, pending: dict[int, Request],

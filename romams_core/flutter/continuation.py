@@ -20,8 +20,9 @@ unstable point), but reaches the points by predictor-corrector steps instead of 
   Newton state is compared with the assignment of a full eigen-solve; when they differ the full-spectrum step
   replaces it (a root that entered between the branches, or a branch that slid onto another root).
 
-Models without the diagonalized Tustin form (zero-order hold, defective aero matrix) have no det T(s) Newton and
-use ``Tracker`` unchanged.
+A Tustin model whose aero matrix is not diagonalized (defective, the reference path) gets T(s) from dense solves
+with s* I - A (``eigen.resolvent_terms``), so both paths continue the branches alike; the zero-order hold has no
+det T(s) of this form and uses ``Tracker`` unchanged.
 """
 
 from __future__ import annotations
@@ -33,7 +34,8 @@ from .newton import RootRequest, RootsRequest
 from .tracking import G_UNSTABLE, Branches, Path, Solve, Tracker, _content_jump, _may_cross, assign
 
 PRED_TOL = 0.05  # corrector farther than this (relative to max(|s|, omega_j)) from the predictor: step rejected
-GROW_TOL = 0.005  # corrector within this of the predictor: next step doubled
+PRED_TOL_POST = 0.3  # the same after the first unstable point (the steps there only shape the V-g curves)
+GROW = 8.0  # corrector within PRED_TOL / GROW of the predictor: next step doubled
 MAC_STEP = 0.9  # smallest MAC of a branch's vector with its previous one on an accepted Newton step
 SAME_ROOT = 1e-6  # two branches closer than this (relative) sit on the same root
 H_MIN = 2.0**-9  # smallest Newton step (of the natural range) before a full eigen-solve resolves the step
@@ -52,14 +54,17 @@ class ContinuationTracker(Tracker):
     def track_search(self, grid: np.ndarray) -> Solve[Path]:
         """The path over the coarse grid (``Tracker.track_search``'s points and result), by continuation."""
         m = self.m
-        if m.coupling != "tustin" or m.lam_a is None:
+        if m.coupling != "tustin":
             return (yield from super().track_search(grid))
         sw = self.sweep
         start = sw.start_points()
         start = start[start < grid[0]]
         span = sw.p_end - sw.p_start
+        pts = np.concatenate([start, grid])
         checks = sw.p_start + span * np.array(CHECKPOINTS)
-        pts = np.union1d(np.concatenate([start, grid]), checks)
+        near = np.abs(checks[:, None] - pts[None, :]) <= 1e-9 * span  # a checkpoint on a target point: that point
+        checks = np.where(near.any(axis=1), pts[np.argmax(near, axis=1)], checks)
+        pts = np.union1d(pts, checks)
         coarse = set(grid.tolist())
         check_set = set(checks.tolist())
         p0 = np.array([sw.p_start])
@@ -84,7 +89,8 @@ class ContinuationTracker(Tracker):
                 new, x1, err = res
                 self._append(path, p1, x1, new)
                 self.newton_last = True
-                h = (p1 - p0) * (2.0 if err < GROW_TOL else 1.0)
+                h = max(h, p1 - p0) * (2.0 if err < self._pred_tol(path) / GROW else 1.0)  # a step cut short by
+                # the target keeps the step length it came with
                 continue
             if p1 - p0 > H_MIN * sw.scale_at(p0) or res == HUMP:
                 h = 0.25 * (p1 - p0)
@@ -94,6 +100,11 @@ class ContinuationTracker(Tracker):
             self.newton_last = False
             h = p1 - p0
         return h
+
+    @staticmethod
+    def _pred_tol(path: Path) -> float:
+        """Largest accepted predictor error: ``PRED_TOL`` before the first unstable point, ``PRED_TOL_POST`` after."""
+        return PRED_TOL if path.first_unstable is None else PRED_TOL_POST
 
     def _append(self, path: Path, p1: float, x1: float, new: Branches) -> None:
         """Append an accepted point; mark the first unstable point."""
@@ -135,8 +146,9 @@ class ContinuationTracker(Tracker):
             return None
         lam = np.array(roots, complex)
         err = float(np.max(np.abs(lam - pred) / scale))
-        sep = np.abs(lam[:, None] - lam[None, :]) / scale[:, None] + np.eye(lam.size)
-        if err > PRED_TOL or sep.min() < SAME_ROOT:
+        d = np.minimum(np.abs(lam[:, None] - lam[None, :]), np.abs(lam[:, None] - lam[None, :].conj()))
+        sep = d / scale[:, None] + np.eye(lam.size)  # a root and its conjugate are one root (one mode pair)
+        if err > self._pred_tol(path) or sep.min() < SAME_ROOT:
             return None
         sv = struct_vectors(m, lam[None, :], v, q)
         if sv is None or sv[2][0].any():

@@ -100,6 +100,35 @@ def _rate_terms(
     return -q[:, None] * (sv * d1 + sv * sv * d2), -qv * (d1 + 2.0 * sv * d2)
 
 
+def resolvent_terms(m: Model, sstar: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """C (s* I - A)^-1 B and C (s* I - A)^-2 B [M, k*k] (flattened) of the Tustin aero model at s* = s c_ref / V [M],
+    whether s* sits exactly on an aero pole [M] (both terms 0 there) and whether it is within ``LAG_NEAR`` of one [M].
+
+    From the pole residues when the aero matrix is diagonalized (H - D = sum_i res_i / (s* - lam_i)); else (the
+    reference path: defective aero matrix) by dense solves with s* I - A.
+    """
+    if m.lam_a is not None and m.res is not None:
+        r = 1.0 / (sstar[:, None] - m.lam_a)  # [M, na]
+        # a root exactly on an aero pole is an aero state the structure does not drive or see (a repeated pole of
+        # an RFA ROM has more copies than modes): a pure aero root, structural part 0, content 0, a lag root
+        on_pole = ~np.isfinite(r).all(axis=1)
+        r[on_pole] = 0.0
+        near = (np.abs(r) > m.near_r).any(axis=1) | on_pole  # |s* - lam_i| < LAG_NEAR |lam_i| for some pole i
+        return r @ m.res, (r * r) @ m.res, on_pole, near
+    na = m.na
+    shifted = sstar[:, None, None] * np.eye(na) - m.a  # [M, na, na]
+    x = np.linalg.solve(shifted, np.broadcast_to(m.b, (sstar.size,) + m.b.shape))  # (s* I - A)^-1 B
+    h1 = (m.c @ x).reshape(sstar.size, -1)
+    h2 = (m.c @ np.linalg.solve(shifted, x)).reshape(sstar.size, -1)
+    on_pole = ~(np.isfinite(h1).all(axis=1) & np.isfinite(h2).all(axis=1))
+    h1[on_pole] = 0.0
+    h2[on_pole] = 0.0
+    near = on_pole.copy()
+    if m.poles.size:
+        near |= (np.abs(sstar[:, None] - m.poles) < LAG_NEAR * np.abs(m.poles)).any(axis=1)
+    return h1, h2, on_pole, near
+
+
 def struct_vectors(
     m: Model, lam: np.ndarray, v: np.ndarray, q: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -114,7 +143,6 @@ def struct_vectors(
     a repeated RFA pole) is a pure aero root: structural part 0, content 0, lag root (as its full eigenvector).
     None when ill-defined (non-finite, T exactly singular): the caller then uses the full eigenvectors.
     """
-    assert m.lam_a is not None and m.res is not None
     k = m.k
     sel, paired = _pair_selection(lam)
     rows = np.nonzero(sel)[0]
@@ -122,13 +150,8 @@ def struct_vectors(
     nm = ss.size
     with np.errstate(all="ignore"):
         vc = (v / m.c_ref)[rows]
-        r = 1.0 / ((ss / vc)[:, None] - m.lam_a)  # vc / (s - vc lam_i) = 1 / (s* - lam_i) [M, na]
-        # a root exactly on an aero pole is an aero state the structure does not drive or see (a repeated pole of
-        # an RFA ROM has more copies than modes): a pure aero root, structural part 0, content 0, a lag root
-        on_pole = ~np.isfinite(r).all(axis=1)
-        r[on_pole] = 0.0
-        near = (np.abs(r) > m.near_r).any(axis=1) | on_pole  # |s* - lam_i| < LAG_NEAR |lam_i| for some pole i
-        rr = np.concatenate([r, r * r]) @ m.res  # [2M, k*k]: H - D, and -vc dH/ds
+        h1, h2, on_pole, near = resolvent_terms(m, ss / vc)
+        rr = np.concatenate([h1, h2])  # [2M, k*k]: H - D, and -vc dH/ds
         t = (m.d.ravel() + rr[:nm]) * (-q[rows])[:, None]
         g = 2.0 * m.zeta * m.omega
         t[:, :: k + 1] += (ss[:, None] + g) * ss[:, None] + m.omega**2

@@ -58,8 +58,11 @@ def _root_arrays(reqs: list[RootRequest]) -> dict[str, np.ndarray]:
     k2 = m0.k * m0.k
     ms = [r.model for r in reqs]
     zero = np.zeros(k2)
+    aero = ({"lam_a": np.array([m.lam_a for m in ms]), "res": np.array([m.res for m in ms])}
+            if m0.lam_a is not None else
+            {"a": np.array([m.a for m in ms]), "b": np.array([m.b for m in ms]), "c": np.array([m.c for m in ms])})
     out = {
-        "lam_a": np.array([m.lam_a for m in ms]), "res": np.array([m.res for m in ms]),
+        **aero,
         "g": np.array([2.0 * m.zeta * m.omega for m in ms]), "kd": np.array([m.omega**2 for m in ms]),
         "d": np.array([m.d.ravel() for m in ms]), "vc": np.array([r.vc for r in reqs], float),
         "q": np.array([r.q for r in reqs], float), "s": np.array([r.s0 for r in reqs], complex),
@@ -71,14 +74,26 @@ def _root_arrays(reqs: list[RootRequest]) -> dict[str, np.ndarray]:
     return out
 
 
+def _resolvent(a: dict[str, np.ndarray], i: np.ndarray, sstar: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """C (s* I - A)^-1 B and C (s* I - A)^-2 B [n, k*k] of the requests i (``eigen.resolvent_terms``, stacked)."""
+    if "lam_a" in a:
+        r = 1.0 / (sstar[:, None] - a["lam_a"][i])  # [n, na]
+        res = a["res"][i]
+        return (r[:, None, :] @ res)[:, 0, :], ((r * r)[:, None, :] @ res)[:, 0, :]
+    am, c = a["a"][i], a["c"][i]
+    shifted = sstar[:, None, None] * np.eye(am.shape[1]) - am
+    x = np.linalg.solve(shifted, a["b"][i])
+    n = sstar.size
+    return (c @ x).reshape(n, -1), (c @ np.linalg.solve(shifted, x)).reshape(n, -1)
+
+
 def _newton_system(a: dict[str, np.ndarray], i: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """T(s) and dT/ds [n, k, k] of the requests i at their current s (module docstring; D1, D2 as _rate_terms)."""
     s, vc, q = a["s"][i], a["vc"][i], a["q"][i]
-    r = 1.0 / (s[:, None] / vc[:, None] - a["lam_a"][i])  # [n, na]
-    res = a["res"][i]
-    t = -q[:, None] * a["d"][i] - q[:, None] * (r[:, None, :] @ res)[:, 0, :]
+    h1, h2 = _resolvent(a, i, s / vc)
+    t = -q[:, None] * a["d"][i] - q[:, None] * h1
     t[:, :: k + 1] += s[:, None] * s[:, None] + a["g"][i] * s[:, None] + a["kd"][i]
-    dt = (q / vc)[:, None] * ((r * r)[:, None, :] @ res)[:, 0, :]
+    dt = (q / vc)[:, None] * h2
     dt[:, :: k + 1] += 2.0 * s[:, None] + a["g"][i]
     if "d1" in a:
         sv, qv = (s / vc)[:, None], (q / vc)[:, None]
@@ -108,7 +123,7 @@ def newton_roots(reqs: list[RootRequest], maxit: int = 30) -> list[complex | Non
     leaves the iteration when it has converged (or failed), so slow ones do not cost the others anything.
     """
     m0 = reqs[0].model
-    assert all(r.model.lam_a is not None and r.model.res is not None for r in reqs)
+    assert all(r.model.coupling == "tustin" and (r.model.lam_a is None) == (m0.lam_a is None) for r in reqs)
     k = m0.k
     a = _root_arrays(reqs)
     out: list[complex | None] = [None] * len(reqs)
