@@ -7,7 +7,7 @@ unstable point), but reaches the points by predictor-corrector steps instead of 
   continuation coordinate x (``Sweep.x``) through the last points of the path;
 - corrector: Newton on det T(s) from the prediction for the k branches together (one ``newton.RootsRequest``,
   iterated with the requests of every other search of the round, ``batch.py``); the structural vectors, content and
-  lag flags of the k roots come from the null vectors of T(s) (``eigen.struct_vectors``), no eigen-solve;
+  lag flags of the k roots come from the null vectors of T(s) (``newton.roots_and_vectors``, batched as well);
 - a step is accepted when every branch converged to its own root (no two branches on the same root), each root
   lies within ``PRED_TOL`` (relative) of its prediction, keeps MAC >= ``MAC_STEP`` with the previous vector, is no
   lag root and changes its structural content by less than ``tracking.CONTENT_JUMP``; before the first unstable
@@ -15,10 +15,13 @@ unstable point), but reaches the points by predictor-corrector steps instead of 
   not skipped), down to the sweep's minimum step. The step grows (x 2) when the corrector lands close to the
   predictor and shrinks (/ 4) on a rejected step;
 - a full eigen-solve resolves what Newton cannot: a step rejected at the smallest Newton step ``H_MIN`` (of the
-  natural range) is taken by ``Tracker._advance`` (Hungarian assignment of the full spectrum, its split rules), and
-  at the fixed checkpoints ``CHECKPOINTS`` (fractions of the sweep's range, independent of the coarse grid) the
-  Newton state is compared with the assignment of a full eigen-solve; when they differ the full-spectrum step
-  replaces it (a root that entered between the branches, or a branch that slid onto another root).
+  natural range) is left to ``Tracker._advance`` up to the next target point (Hungarian assignment of the full
+  spectrum there, with its split rules);
+  and at the fixed checkpoints ``CHECKPOINTS`` (fractions of the sweep's range, independent of the coarse grid)
+  the Newton states are compared, after the sweep and in one eigen-solve request, with the assignment of the full
+  spectrum from the point before each; at the first that differs (a root that entered between the branches, or a
+  branch that slid onto another root) the path is cut, the full-spectrum step replaces the Newton one and the
+  continuation resumes from there.
 
 A Tustin model whose aero matrix is not diagonalized (defective, the reference path) gets T(s) from dense solves
 with s* I - A (``eigen.resolvent_terms``), so both paths continue the branches alike; the zero-order hold has no
@@ -29,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .eigen import struct_vectors
+from .eigen import EigData
 from .newton import RootRequest, RootsRequest
 from .tracking import G_UNSTABLE, Branches, Path, Solve, Tracker, _content_jump, _may_cross, assign
 
@@ -70,13 +73,51 @@ class ContinuationTracker(Tracker):
         p0 = np.array([sw.p_start])
         path = Path([sw.p_start], [self.start()], [float(sw.x(p0, *sw.cond(p0))[0])])
         h = float(pts[0] - sw.p_start)
-        for p_t in pts.tolist():
+        todo = pts
+        while True:
+            marks = yield from self._run(path, todo.tolist(), coarse, check_set, h)
+            bad = yield from self._verify(path, marks)
+            if bad is None:
+                return path
+            i, e_c = bad  # the checkpoint path.p[i] disagrees with the full spectrum: retrack from it
+            p_c = path.p[i]
+            del path.p[i:], path.states[i:], path.x[i:]
+            path.coarse = [c for c in path.coarse if c < i]
+            if path.first_unstable is not None and path.first_unstable >= i:
+                path.first_unstable = None
+            yield from self._advance(path, p_c, e_c, 0)
+            self.newton_last = False
+            if p_c in coarse:
+                path.coarse.append(len(path.p) - 1)
+            todo = pts[pts > p_c]
+            h = p_c - path.p[-2]
+
+    def _run(self, path: Path, todo: list[float], coarse: set[float], check_set: set[float],
+             h: float) -> Solve[list[int]]:
+        """Continue the path over the target points ``todo``; the path indices of the checkpoints reached by Newton."""
+        marks = []
+        for p_t in todo:
             h = yield from self._continue_to(path, p_t, h)
-            if p_t in check_set:
-                yield from self._checkpoint(path)
+            if p_t in check_set and self.newton_last:
+                marks.append(len(path.p) - 1)
             if p_t in coarse:
                 path.coarse.append(len(path.p) - 1)
-        return path
+        return marks
+
+    def _verify(self, path: Path, marks: list[int]) -> Solve[tuple[int, EigData] | None]:
+        """Check the checkpoints (path indices ``marks``) against one full eigen-solve of all of them: the first one
+        whose Newton state is not the Hungarian assignment of the full spectrum from the point before it (index and
+        its eigen-data), None when all agree."""
+        if not marks:
+            return None
+        e = yield from self.eig(np.array([path.p[i] for i in marks]))
+        for j, i in enumerate(marks):
+            full, check = assign(path.states[i - 1], e.point(j), self.weight, self.m.omega)
+            st = path.states[i]
+            scale = np.maximum(np.abs(st.lam), self.m.omega)
+            if check.ambiguous or np.max(np.abs(full.lam - st.lam) / scale) >= MATCH_TOL:
+                return i, e.point(j)
+        return None
 
     def _continue_to(self, path: Path, p_t: float, h: float) -> Solve[float]:
         """Advance the path to p_t by Newton steps (first step h); returns the next step length."""
@@ -95,10 +136,11 @@ class ContinuationTracker(Tracker):
             if p1 - p0 > H_MIN * sw.scale_at(p0) or res == HUMP:
                 h = 0.25 * (p1 - p0)
                 continue
-            e1 = yield from self.eig(np.array([p1]))  # Newton cannot resolve the step: full spectrum
-            yield from self._advance(path, p1, e1, 0)
+            # Newton cannot resolve the step: the rest of the way to the target by the full-spectrum tracker
+            e1 = yield from self.eig(np.array([p_t]))
+            yield from self._advance(path, p_t, e1, 0)
             self.newton_last = False
-            h = p1 - p0
+            h = p_t - p0
         return h
 
     @staticmethod
@@ -121,12 +163,14 @@ class ContinuationTracker(Tracker):
         n = min(len(xs), 3)
         if n == 1:
             return st[-1].lam.copy()
-        xa = np.array(xs[-n:])
-        la = np.array([s.lam for s in st[-n:]])
-        out = np.zeros(la.shape[1], complex)
+        xa = xs[-n:]
+        out = np.zeros(st[-1].lam.size, complex)
         for i in range(n):  # Lagrange basis through the last n points
-            w = np.prod([(x1 - xa[j]) / (xa[i] - xa[j]) for j in range(n) if j != i])
-            out += w * la[i]
+            w = 1.0
+            for j in range(n):
+                if j != i:
+                    w *= (x1 - xa[j]) / (xa[i] - xa[j])
+            out += w * st[i - n].lam
         return out
 
     def _newton_point(self, path: Path, p1: float) -> Solve[tuple[Branches, float, float] | str | None]:
@@ -140,9 +184,9 @@ class ContinuationTracker(Tracker):
         prev = path.states[-1]
         scale = np.maximum(np.abs(prev.lam), m.omega)
         vc = float(v[0]) / m.c_ref
-        roots = yield RootsRequest([RootRequest(m, vc, float(q[0]), complex(s0), float(sc))
-                                    for s0, sc in zip(pred.tolist(), scale.tolist(), strict=True)])
-        if any(s is None for s in roots):
+        roots, data = yield RootsRequest([RootRequest(m, vc, float(q[0]), complex(s0), float(sc))
+                                          for s0, sc in zip(pred.tolist(), scale.tolist(), strict=True)])
+        if any(d is None for d in data):
             return None
         lam = np.array(roots, complex)
         err = float(np.max(np.abs(lam - pred) / scale))
@@ -150,10 +194,10 @@ class ContinuationTracker(Tracker):
         sep = d / scale[:, None] + np.eye(lam.size)  # a root and its conjugate are one root (one mode pair)
         if err > self._pred_tol(path) or sep.min() < SAME_ROOT:
             return None
-        sv = struct_vectors(m, lam[None, :], v, q)
-        if sv is None or sv[2][0].any():
+        if any(d[2] for d in data):  # a branch on a lag root
             return None
-        vec, content = sv[0][0], sv[1][0]
+        vec = np.stack([d[0] for d in data], axis=1)
+        content = np.array([d[1] for d in data])
         if float(np.min(np.abs(np.sum(prev.vec.conj() * vec, axis=0)) ** 2)) < MAC_STEP:
             return None
         new = Branches(lam, vec, prev.lag, content)
@@ -170,22 +214,3 @@ class ContinuationTracker(Tracker):
         g_new = 2.0 * new.lam.real / np.abs(new.lam)
         xs = (path.x[-2], path.x[-1], x1)
         return _may_cross(xs, np.array([path.g(-2), path.g(-1), g_new]))
-
-    def _checkpoint(self, path: Path) -> Solve[None]:
-        """Check the last (Newton) point against the full spectrum; on disagreement the full-spectrum step wins."""
-        if len(path.p) < 2 or not self.newton_last:
-            return
-        self.newton_last = False
-        p1, x1 = path.p[-1], path.x[-1]
-        e1 = yield from self.eig(np.array([p1]))
-        st = path.states.pop()
-        path.p.pop()
-        path.x.pop()
-        if path.first_unstable is not None and path.first_unstable >= len(path.p):
-            path.first_unstable = None
-        full, check = assign(path.states[-1], e1, self.weight, self.m.omega)
-        scale = np.maximum(np.abs(st.lam), self.m.omega)
-        if not check.ambiguous and np.max(np.abs(full.lam - st.lam) / scale) < MATCH_TOL:
-            self._append(path, p1, x1, st)
-            return
-        yield from self._advance(path, p1, e1, 0)

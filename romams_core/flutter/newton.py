@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .eigen import EigRequest, _zgesv
+from .eigen import CONTENT_MIN, EigRequest, _zgesv, null_vectors, resolvent_dense, resolvent_diag
 from .model import Model
 
 
@@ -33,7 +33,8 @@ class RootRequest:
 
 @dataclass
 class RootsRequest:
-    """Several Newton roots at once (e.g. the k branches of a continuation step); answered by a list of roots."""
+    """Several Newton roots at once (the k branches of a continuation step), of one shape (k, aero model size);
+    answered by the list of roots and the list of their ``roots_and_vectors`` data."""
 
     reqs: list[RootRequest]
 
@@ -60,10 +61,12 @@ def _root_arrays(reqs: list[RootRequest]) -> dict[str, np.ndarray]:
     zero = np.zeros(k2)
     aero = ({"lam_a": np.array([m.lam_a for m in ms]), "res": np.array([m.res for m in ms])}
             if m0.lam_a is not None else
-            {"a": np.array([m.a for m in ms]), "b": np.array([m.b for m in ms]), "c": np.array([m.c for m in ms])})
+            {"a": np.array([m.a for m in ms]), "b": np.array([m.b for m in ms]), "c": np.array([m.c for m in ms]),
+             "poles": np.array([m.poles for m in ms])})
     out = {
         **aero,
         "g": np.array([2.0 * m.zeta * m.omega for m in ms]), "kd": np.array([m.omega**2 for m in ms]),
+        "omega": np.array([m.omega for m in ms]),
         "d": np.array([m.d.ravel() for m in ms]), "vc": np.array([r.vc for r in reqs], float),
         "q": np.array([r.q for r in reqs], float), "s": np.array([r.s0 for r in reqs], complex),
         "scale": np.array([r.scale for r in reqs], float),
@@ -74,32 +77,33 @@ def _root_arrays(reqs: list[RootRequest]) -> dict[str, np.ndarray]:
     return out
 
 
-def _resolvent(a: dict[str, np.ndarray], i: np.ndarray, sstar: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """C (s* I - A)^-1 B and C (s* I - A)^-2 B [n, k*k] of the requests i (``eigen.resolvent_terms``, stacked)."""
-    if "lam_a" in a:
-        r = 1.0 / (sstar[:, None] - a["lam_a"][i])  # [n, na]
-        res = a["res"][i]
-        return (r[:, None, :] @ res)[:, 0, :], ((r * r)[:, None, :] @ res)[:, 0, :]
-    am, c = a["a"][i], a["c"][i]
-    shifted = sstar[:, None, None] * np.eye(am.shape[1]) - am
-    x = np.linalg.solve(shifted, a["b"][i])
-    n = sstar.size
-    return (c @ x).reshape(n, -1), (c @ np.linalg.solve(shifted, x)).reshape(n, -1)
-
-
-def _newton_system(a: dict[str, np.ndarray], i: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """T(s) and dT/ds [n, k, k] of the requests i at their current s (module docstring; D1, D2 as _rate_terms)."""
+def _terms(a: dict[str, np.ndarray], i: np.ndarray, k: int) -> tuple[np.ndarray, ...]:
+    """T(s), the aero states' part of dT/ds (q / vc) C (s* I - A)^-2 B, the D1, D2 part of dT/ds (None without them)
+    [n, k*k], and the on-pole / near-pole flags [n] of the requests i at their current s (``eigen.resolvent_terms``)."""
     s, vc, q = a["s"][i], a["vc"][i], a["q"][i]
-    h1, h2 = _resolvent(a, i, s / vc)
+    if "lam_a" in a:
+        h1, h2, on_pole, near = resolvent_diag(s / vc, a["lam_a"][i], a["res"][i])
+    else:
+        h1, h2, on_pole, near = resolvent_dense(s / vc, a["a"][i], a["b"][i], a["c"][i], a["poles"][i])
     t = -q[:, None] * a["d"][i] - q[:, None] * h1
     t[:, :: k + 1] += s[:, None] * s[:, None] + a["g"][i] * s[:, None] + a["kd"][i]
-    dt = (q / vc)[:, None] * h2
-    dt[:, :: k + 1] += 2.0 * s[:, None] + a["g"][i]
+    dta = (q / vc)[:, None] * h2
+    dt_rate = None
     if "d1" in a:
         sv, qv = (s / vc)[:, None], (q / vc)[:, None]
         d1, d2 = a["d1"][i], a["d2"][i]
         t = t + -q[:, None] * (sv * d1 + sv * sv * d2)
-        dt = dt + -qv * (d1 + 2.0 * sv * d2)
+        dt_rate = -qv * (d1 + 2.0 * sv * d2)
+    return t, dta, dt_rate, on_pole, near
+
+
+def _newton_system(a: dict[str, np.ndarray], i: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """T(s) and dT/ds [n, k, k] of the requests i at their current s (module docstring; D1, D2 as _rate_terms)."""
+    t, dta, dt_rate, _, _ = _terms(a, i, k)
+    dt = dta.copy()
+    dt[:, :: k + 1] += 2.0 * a["s"][i][:, None] + a["g"][i]
+    if dt_rate is not None:
+        dt = dt + dt_rate
     return t.reshape(-1, k, k), dt.reshape(-1, k, k)
 
 
@@ -122,6 +126,13 @@ def newton_roots(reqs: list[RootRequest], maxit: int = 30) -> list[complex | Non
     simple root, so a step below 1e-7 ``scale`` leaves an error of order 1e-14 ``scale``: converged. A request
     leaves the iteration when it has converged (or failed), so slow ones do not cost the others anything.
     """
+    return roots_and_vectors(reqs, np.zeros(len(reqs), bool), maxit)[0]
+
+
+def roots_and_vectors(reqs: list[RootRequest], want: np.ndarray,
+                      maxit: int = 30) -> tuple[list[complex | None], list[RootData | None]]:
+    """``newton_roots`` and, for the requests flagged in ``want`` [n] whose root was found, (normalized structural
+    vector [xi; s xi / omega] [2k], structural content, lag-root flag): ``eigen.struct_vectors``' quantities."""
     m0 = reqs[0].model
     assert all(r.model.coupling == "tustin" and (r.model.lam_a is None) == (m0.lam_a is None) for r in reqs)
     k = m0.k
@@ -145,4 +156,28 @@ def newton_roots(reqs: list[RootRequest], maxit: int = 30) -> list[complex | Non
             for i in act[done].tolist():
                 out[i] = complex(a["s"][i])
             act = act[ok & ~done]
+        found = np.array([s is not None for s in out], bool)
+        return out, _vectors(a, np.nonzero(want & found)[0], k, len(reqs))
+
+
+RootData = tuple[np.ndarray, float, bool]
+
+
+def _vectors(a: dict[str, np.ndarray], idx: np.ndarray, k: int, n: int) -> list[RootData | None]:
+    """Structural vector, content and lag flag at the roots a["s"] of the requests idx (``roots_and_vectors``)."""
+    out: list[RootData | None] = [None] * n
+    if idx.size == 0:
+        return out
+    t, dta, dt_rate, on_pole, near = _terms(a, idx, k)
+    nv = null_vectors(t, a["s"][idx], a["g"][idx], a["omega"][idx], dta, dt_rate)
+    if nv is None:
+        return out
+    x, cont = nv
+    x[on_pole] = 0.0
+    cont[on_pole] = 0.0
+    lag = near & (cont < CONTENT_MIN)
+    good = np.isfinite(x).all(axis=1) & np.isfinite(cont)
+    for j, i in enumerate(idx.tolist()):
+        if good[j]:
+            out[i] = (x[j], float(cont[j]), bool(lag[j]))
     return out
