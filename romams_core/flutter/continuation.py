@@ -10,13 +10,15 @@ unstable point), but reaches the points by predictor-corrector steps instead of 
   lag flags of the k roots come from the null vectors of T(s) (``newton.roots_and_vectors``, batched as well);
 - a step is accepted when every branch converged to its own root (no two branches on the same root), each root
   lies within ``PRED_TOL`` (relative) of its prediction, keeps MAC >= ``MAC_STEP`` with the previous vector, is no
-  lag root and changes its structural content by less than ``tracking.CONTENT_JUMP``; before the first unstable
+  lag root and changes its structural content by less than ``tracking.CONTENT_JUMP``; a step where a branch has
+  structural content below 0.5 (veering with a lag root) goes to the full spectrum at once (its assignment's content
+  terms choose the more structural root, as ``Tracker`` does); before the first unstable
   point also the damping-hump test ``tracking._may_cross`` must pass (a crossing between two stable points is
   not skipped), down to the sweep's minimum step. The step grows (x 2) when the corrector lands close to the
   predictor and shrinks (/ 4) on a rejected step;
 - a full eigen-solve resolves what Newton cannot: a step rejected at the smallest Newton step ``H_MIN`` (of the
-  natural range) is left to ``Tracker._advance`` up to the next target point (Hungarian assignment of the full
-  spectrum there, with its split rules);
+  natural range) is taken by ``Tracker._advance`` (Hungarian assignment of the full spectrum, its split rules),
+  and after ``FALLBACKS`` such steps in a row the rest of the way to the next target point as well;
   and at the fixed checkpoints ``CHECKPOINTS`` (fractions of the sweep's range, independent of the coarse grid)
   the Newton states are compared, after the sweep and in one eigen-solve request, with the assignment of the full
   spectrum from the point before each; at the first that differs (a root that entered between the branches, or a
@@ -34,7 +36,7 @@ import numpy as np
 
 from .eigen import EigData
 from .newton import RootRequest, RootsRequest
-from .tracking import G_UNSTABLE, Branches, Path, Solve, Tracker, _content_jump, _may_cross, assign
+from .tracking import CONTENT_AWAY, G_UNSTABLE, Branches, Path, Solve, Tracker, _content_jump, _may_cross, assign
 
 PRED_TOL = 0.05  # corrector farther than this (relative to max(|s|, omega_j)) from the predictor: step rejected
 PRED_TOL_POST = 0.3  # the same after the first unstable point (the steps there only shape the V-g curves)
@@ -44,9 +46,11 @@ SAME_ROOT = 1e-6  # two branches closer than this (relative) sit on the same roo
 H_MIN = 2.0**-9  # smallest Newton step (of the natural range) before a full eigen-solve resolves the step
 CHECKPOINTS = (0.25, 0.5, 1.0)  # fractions of the sweep range where the Newton state is checked by a full solve
 MATCH_TOL = 1e-6  # Newton root and full-spectrum assignment agree to this (relative)
+FALLBACKS = 4  # full-spectrum steps of length H_MIN in a row after which the full spectrum takes the step to the target
 
 
 HUMP = "hump"  # rejection of a step by the damping-hump test (shrinks to the sweep's minimum step, no eigen-solve)
+FULL = "full"  # a step the full spectrum must take at once (a branch of structural content below 0.5)
 
 
 class ContinuationTracker(Tracker):
@@ -122,6 +126,7 @@ class ContinuationTracker(Tracker):
     def _continue_to(self, path: Path, p_t: float, h: float) -> Solve[float]:
         """Advance the path to p_t by Newton steps (first step h); returns the next step length."""
         sw = self.sweep
+        fails = 0
         while path.p[-1] < p_t:
             p0 = path.p[-1]
             p1 = p_t if p0 + 1.25 * h >= p_t else p0 + h
@@ -130,17 +135,21 @@ class ContinuationTracker(Tracker):
                 new, x1, err = res
                 self._append(path, p1, x1, new)
                 self.newton_last = True
+                fails = 0
                 h = max(h, p1 - p0) * (2.0 if err < self._pred_tol(path) / GROW else 1.0)  # a step cut short by
                 # the target keeps the step length it came with
                 continue
-            if p1 - p0 > H_MIN * sw.scale_at(p0) or res == HUMP:
+            if res != FULL and (p1 - p0 > H_MIN * sw.scale_at(p0) or res == HUMP):
                 h = 0.25 * (p1 - p0)
                 continue
-            # Newton cannot resolve the step: the rest of the way to the target by the full-spectrum tracker
-            e1 = yield from self.eig(np.array([p_t]))
-            yield from self._advance(path, p_t, e1, 0)
+            # Newton cannot resolve the step: the full-spectrum tracker takes it (and, after FALLBACKS such steps in
+            # a row, the rest of the way to the target)
+            fails += 1
+            p1 = p_t if fails >= FALLBACKS else p1
+            e1 = yield from self.eig(np.array([p1]))
+            yield from self._advance(path, p1, e1, 0)
             self.newton_last = False
-            h = p_t - p0
+            h = p1 - p0
         return h
 
     @staticmethod
@@ -175,7 +184,7 @@ class ContinuationTracker(Tracker):
 
     def _newton_point(self, path: Path, p1: float) -> Solve[tuple[Branches, float, float] | str | None]:
         """(state, x1, predictor error) of the Newton corrector at p1; None when the step is ambiguous, ``HUMP``
-        when only the damping-hump test rejects it."""
+        when only the damping-hump test rejects it, ``FULL`` when the full spectrum must take it (``_veers``)."""
         m, sw = self.m, self.sweep
         v, rho = sw.cond(np.array([p1]))
         q = 0.5 * rho * v**2
@@ -203,9 +212,20 @@ class ContinuationTracker(Tracker):
         new = Branches(lam, vec, prev.lag, content)
         if _content_jump(prev, new, m.omega):
             return None
+        if self._veers(prev, new):
+            return FULL
         if path.first_unstable is None and self._hump(path, p1, x1, new):
             return HUMP
         return new, x1, err
+
+    def _veers(self, prev: Branches, new: Branches) -> bool:
+        """True when an oscillatory branch's structural content is below 0.5 at either end of the step: the branch
+        veers with a lag root (they exchange their character), which the full spectrum's assignment resolves."""
+        if prev.content is None or new.content is None:
+            return False
+        om = self.m.omega
+        away = (np.abs(prev.lam) > CONTENT_AWAY * om) & (np.abs(new.lam) > CONTENT_AWAY * om)
+        return bool(np.any(away & ((prev.content < 0.5) | (new.content < 0.5))))
 
     def _hump(self, path: Path, p1: float, x1: float, new: Branches) -> bool:
         """True when a branch's damping could cross zero inside the step (``_may_cross``) and the step can shrink."""
