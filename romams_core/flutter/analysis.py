@@ -51,7 +51,7 @@ def flutter_analysis(omega: np.ndarray, aero: Any, c_ref: float, mach: float, **
     state (altitude_ref_m = 10 km, or rho_ref, a_ref), the ranges v_max (m/s, constant-density; default 3 M a_ref,
     at Mach 0 omega_max c_ref), q_max (Pa, constant-speed; default 4 x 0.5 rho_ref (M a_ref)^2), altitude_range_m
     (matched); n_points coarse sweep points (the tracker refines where needed, so the flutter point does not depend
-    on it); rtol of the crossing (brentq, then polished to 1e-12); tracking: "eigen" (one full eigen-solve per sweep
+    on it); rtol of the crossing (brentq, then polished to 1e-11); tracking: "eigen" (one full eigen-solve per sweep
     point, ``tracking.Tracker``) or "continuation" (Newton on det T(s) between a few eigen-solves,
     ``continuation.ContinuationTracker``; the same flutter points); SDOFF when the flutter vector's largest modal
     share is >= sdoff_share AND that mode alone is unstable at q <= sdoff_q_factor q_f; k_band (reduced frequency on

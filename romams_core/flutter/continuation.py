@@ -10,10 +10,10 @@ unstable point), but reaches the points by predictor-corrector steps instead of 
   lag flags of the k roots come from the null vectors of T(s) (``newton.roots_and_vectors``, batched as well);
 - a step is accepted when every branch converged to its own root (no two branches on the same root), each root
   lies within ``PRED_TOL`` (relative) of its prediction, keeps MAC >= ``MAC_STEP`` with the previous vector, is no
-  lag root and changes its structural content by less than ``tracking.CONTENT_JUMP``; a step where a branch has
-  structural content below 0.5 (veering with a lag root) goes to the full spectrum at once (its assignment's content
-  terms choose the more structural root, as ``Tracker`` does); before the first unstable
-  point also the damping-hump test ``tracking._may_cross`` must pass (a crossing between two stable points is
+  lag root and changes its structural content by less than ``tracking.CONTENT_JUMP``; before the first unstable
+  point a step where a branch of structural content below 0.5 loses more of it (veering with a lag root) goes to the
+  full spectrum at once (its assignment's content terms choose the more structural root, as ``Tracker`` does), and
+  the damping-hump test ``tracking._may_cross`` must pass (a crossing between two stable points is
   not skipped), down to the sweep's minimum step. The step grows (x 2) when the corrector lands close to the
   predictor and shrinks (/ 4) on a rejected step;
 - a full eigen-solve resolves what Newton cannot: a step rejected at the smallest Newton step ``H_MIN`` (of the
@@ -46,6 +46,7 @@ SAME_ROOT = 1e-6  # two branches closer than this (relative) sit on the same roo
 H_MIN = 2.0**-9  # smallest Newton step (of the natural range) before a full eigen-solve resolves the step
 CHECKPOINTS = (0.25, 0.5, 1.0)  # fractions of the sweep range where the Newton state is checked by a full solve
 MATCH_TOL = 1e-6  # Newton root and full-spectrum assignment agree to this (relative)
+VEER_DROP = 0.002  # content loss in one step of a branch below content 0.5 that sends the step to the full spectrum
 FALLBACKS = 4  # full-spectrum steps of length H_MIN in a row after which the full spectrum takes the step to the target
 
 
@@ -212,20 +213,21 @@ class ContinuationTracker(Tracker):
         new = Branches(lam, vec, prev.lag, content)
         if _content_jump(prev, new, m.omega):
             return None
-        if self._veers(prev, new):
+        if path.first_unstable is None and self._veers(prev, new):
             return FULL
         if path.first_unstable is None and self._hump(path, p1, x1, new):
             return HUMP
         return new, x1, err
 
     def _veers(self, prev: Branches, new: Branches) -> bool:
-        """True when an oscillatory branch's structural content is below 0.5 at either end of the step: the branch
-        veers with a lag root (they exchange their character), which the full spectrum's assignment resolves."""
+        """True when an oscillatory branch of structural content below 0.5 loses more of it (by ``VEER_DROP``) in
+        the step: it veers with a lag root (they exchange their character), which the full spectrum's assignment
+        resolves (its content terms take the more structural root, as ``Tracker`` does)."""
         if prev.content is None or new.content is None:
             return False
         om = self.m.omega
         away = (np.abs(prev.lam) > CONTENT_AWAY * om) & (np.abs(new.lam) > CONTENT_AWAY * om)
-        return bool(np.any(away & ((prev.content < 0.5) | (new.content < 0.5))))
+        return bool(np.any(away & (new.content < 0.5) & (prev.content - new.content > VEER_DROP)))
 
     def _hump(self, path: Path, p1: float, x1: float, new: Branches) -> bool:
         """True when a branch's damping could cross zero inside the step (``_may_cross``) and the step can shrink."""

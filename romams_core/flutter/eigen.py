@@ -100,7 +100,10 @@ def _rate_terms(
     return -q[:, None] * (sv * d1 + sv * sv * d2), -qv * (d1 + 2.0 * sv * d2)
 
 
-def resolvent_terms(m: Model, sstar: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+Resolvent = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def resolvent_terms(m: Model, sstar: np.ndarray) -> Resolvent:
     """C (s* I - A)^-1 B and C (s* I - A)^-2 B [M, k*k] (flattened) of the Tustin aero model at s* = s c_ref / V [M],
     whether s* sits exactly on an aero pole [M] (both terms 0 there) and whether it is within ``LAG_NEAR`` of one [M].
 
@@ -112,7 +115,7 @@ def resolvent_terms(m: Model, sstar: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return resolvent_dense(sstar, m.a, m.b, m.c, m.poles)
 
 
-def resolvent_diag(sstar: np.ndarray, lam_a: np.ndarray, res: np.ndarray) -> tuple[np.ndarray, ...]:
+def resolvent_diag(sstar: np.ndarray, lam_a: np.ndarray, res: np.ndarray) -> Resolvent:
     """``resolvent_terms`` from poles lam_a [na] or [M, na] and residues res [na, k*k] or [M, na, k*k]."""
     r = 1.0 / (sstar[:, None] - lam_a)  # [M, na]
     # a root exactly on an aero pole is an aero state the structure does not drive or see (a repeated pole of
@@ -126,7 +129,7 @@ def resolvent_diag(sstar: np.ndarray, lam_a: np.ndarray, res: np.ndarray) -> tup
 
 
 def resolvent_dense(sstar: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
-                    poles: np.ndarray) -> tuple[np.ndarray, ...]:
+                    poles: np.ndarray) -> Resolvent:
     """``resolvent_terms`` by dense solves: a [na, na] or [M, na, na], b, c likewise, poles [np] or [M, np]."""
     n = sstar.size
     shifted = sstar[:, None, None] * np.eye(a.shape[-1]) - a  # [M, na, na]

@@ -77,7 +77,8 @@ def _root_arrays(reqs: list[RootRequest]) -> dict[str, np.ndarray]:
     return out
 
 
-def _terms(a: dict[str, np.ndarray], i: np.ndarray, k: int) -> tuple[np.ndarray, ...]:
+def _terms(a: dict[str, np.ndarray], i: np.ndarray,
+           k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
     """T(s), the aero states' part of dT/ds (q / vc) C (s* I - A)^-2 B, the D1, D2 part of dT/ds (None without them)
     [n, k*k], and the on-pole / near-pole flags [n] of the requests i at their current s (``eigen.resolvent_terms``)."""
     s, vc, q = a["s"][i], a["vc"][i], a["q"][i]
