@@ -32,11 +32,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.linalg.lapack
 
 from .model import Model
 
-_zgesv = scipy.linalg.lapack.zgesv
 CONTENT_MIN = 0.1  # structural content below this (and near an aero pole): an aerodynamic lag root
 LAG_NEAR = 0.25  # |s / vc - lam_a| / |lam_a| below this: near that aero pole
 
@@ -146,15 +144,21 @@ def resolvent_dense(sstar: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarr
 
 
 def null_vectors(t: np.ndarray, ss: np.ndarray, g: np.ndarray, omega: np.ndarray, dta: np.ndarray,
-                 dt_rate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
+                 dt_rate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """Normalized structural vectors [xi; s xi / omega] [M, 2k] and structural content [M] of roots ss [M] (rad/s)
     from T(ss) [M, k*k], the aero states' part of dT/ds dta = -q dH_lag/ds [M, k*k] and the D1, D2 part dt_rate
-    (``struct_vectors``); g = 2 zeta omega and omega [k] or [M, k]. None when T is exactly singular."""
+    (``struct_vectors``); g = 2 zeta omega and omega [k] or [M, k]. NaN rows where T is exactly singular."""
     k = omega.shape[-1]
+    t3 = t.reshape(-1, k, k)
     try:
-        ti = np.linalg.inv(t.reshape(-1, k, k))  # T^-1 ~ xi eta^H / sigma_min: right and left null vectors
-    except np.linalg.LinAlgError:
-        return None
+        ti = np.linalg.inv(t3)  # T^-1 ~ xi eta^H / sigma_min: right and left null vectors
+    except np.linalg.LinAlgError:  # one at a time, so that an exactly singular T spoils only its own row (NaN)
+        ti = np.full(t3.shape, np.nan, complex)
+        for i in range(t3.shape[0]):
+            try:
+                ti[i] = np.linalg.inv(t3[i])
+            except np.linalg.LinAlgError:
+                pass
     rhs = _rhs(k)
     y = (ti @ rhs)[..., 0]  # xi (one inverse-iteration step)
     zc = (rhs.conj().T @ ti)[:, 0, :]  # eta^H
@@ -196,10 +200,7 @@ def struct_vectors(
         if t_rate is not None:
             t += t_rate
         dta = h2 * (q[rows] / vc)[:, None]  # -q dH_lag/ds (the aero states' part of dT/ds)
-        nv = null_vectors(t, ss, g, m.omega, dta, dt_rate)
-        if nv is None:
-            return None
-        x, cont = nv
+        x, cont = null_vectors(t, ss, g, m.omega, dta, dt_rate)
         x[on_pole] = 0.0
         cont[on_pole] = 0.0
     if not (np.isfinite(x).all() and np.isfinite(cont).all()):

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .eigen import CONTENT_MIN, EigRequest, _zgesv, null_vectors, resolvent_dense, resolvent_diag
+from .eigen import CONTENT_MIN, EigRequest, null_vectors, resolvent_dense, resolvent_diag
 from .model import Model
 
 
@@ -110,12 +110,13 @@ def _newton_system(a: dict[str, np.ndarray], i: np.ndarray, k: int) -> tuple[np.
 
 def _solve_each(t: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(T^-1 dT/ds [n, k, k], exactly singular T [n]) one system at a time (after a batched solve failed)."""
-    x = np.empty(t.shape, complex)
+    x = np.full(t.shape, np.nan, complex)
     sing = np.zeros(t.shape[0], bool)
-    for i in range(t.shape[0]):
-        _, _, xi, info = _zgesv(t[i], dt[i])
-        sing[i] = info > 0
-        x[i] = xi if info == 0 else np.nan
+    for i in range(t.shape[0]):  # the batched solve's routine, so that the other rows keep their bits
+        try:
+            x[i] = np.linalg.solve(t[i], dt[i])
+        except np.linalg.LinAlgError:
+            sing[i] = True
     return x, sing
 
 
@@ -170,10 +171,7 @@ def _vectors(a: dict[str, np.ndarray], idx: np.ndarray, k: int, n: int) -> list[
     if idx.size == 0:
         return out
     t, dta, dt_rate, on_pole, near = _terms(a, idx, k)
-    nv = null_vectors(t, a["s"][idx], a["g"][idx], a["omega"][idx], dta, dt_rate)
-    if nv is None:
-        return out
-    x, cont = nv
+    x, cont = null_vectors(t, a["s"][idx], a["g"][idx], a["omega"][idx], dta, dt_rate)
     x[on_pole] = 0.0
     cont[on_pole] = 0.0
     lag = near & (cont < CONTENT_MIN)
