@@ -10,6 +10,7 @@ deviation per field, mode and SDOFF mismatches). Usage:
 
     python -m benchmarks.flutter_regression build  [--fixture F.npz] [--designs 30]
     python -m benchmarks.flutter_regression record [--fixture F.npz] --out R.json [--repeat 3] [--batched]
+                                                   [--tracking eigen|continuation]
     python -m benchmarks.flutter_regression structure [--fixture F.npz] [--repeat 3]
     python -m benchmarks.flutter_regression compare REF.json NEW.json
 """
@@ -91,11 +92,12 @@ def _row(r: Any) -> dict[str, Any]:
             **{f: (None if getattr(r, f) is None else float(getattr(r, f))) for f in FIELDS}}
 
 
-def record(fixture: Path, repeat: int = 1, cases: list[str] | None = None, batched: bool = False) -> dict[str, Any]:
+def record(fixture: Path, repeat: int = 1, cases: list[str] | None = None, batched: bool = False,
+           tracking: str | None = None) -> dict[str, Any]:
     """Flutter points of every design x Mach x case and per-structure CPU time medians (ms).
 
     ``batched``: at each Mach the searches of all designs run as one batch (``flutter_batch``); the CPU time of a
-    structure is then the batch's time over the number of designs.
+    structure is then the batch's time over the number of designs. ``tracking``: the flutter option (None: default).
     """
     from romams_core.flutter import flutter_analysis, flutter_batch
     from romams_core.statespace import to_modal
@@ -103,10 +105,12 @@ def record(fixture: Path, repeat: int = 1, cases: list[str] | None = None, batch
     machs, omega, gamma, roms, c_ref = load(fixture)
     n = omega.shape[0]
     out: dict[str, Any] = {"fixture": str(fixture), "designs": int(n), "machs": machs.tolist(), "cases": {},
-                           "batched": batched}
+                           "batched": batched, "tracking": tracking}
     for name, kw in CASES:
         if cases and name not in cases:
             continue
+        if tracking is not None:
+            kw = dict(kw, tracking=tracking)
         rows: list[list[dict[str, Any]]] = []
         cpu = []
         for rep in range(repeat):
@@ -205,6 +209,8 @@ def main() -> None:
     r.add_argument("--repeat", type=int, default=1)
     r.add_argument("--case", action="append", default=None, help="only these cases (repeatable)")
     r.add_argument("--batched", action="store_true", help="each Mach's searches of all designs as one batch")
+    r.add_argument("--tracking", choices=["eigen", "continuation"], default=None, help="branch tracker (default: "
+                   "the flutter default)")
     st = sub.add_parser("structure")
     st.add_argument("--fixture", type=Path, default=DEFAULT_FIXTURE)
     st.add_argument("--repeat", type=int, default=3)
@@ -215,7 +221,7 @@ def main() -> None:
     if args.cmd == "build":
         print(json.dumps(build(args.fixture, args.designs), indent=2))
     elif args.cmd == "record":
-        res = record(args.fixture, args.repeat, args.case, args.batched)
+        res = record(args.fixture, args.repeat, args.case, args.batched, args.tracking)
         args.out.write_text(json.dumps(res))
         print(json.dumps({k: {kk: vv for kk, vv in v.items() if kk != "rows"} for k, v in res["cases"].items()},
                          indent=2))

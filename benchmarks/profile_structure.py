@@ -1,6 +1,6 @@
 """Where the time of one structure goes: cProfile of one structure alone and of one inside a batch of 30, as JSON.
 
-    python -m benchmarks.profile_structure [--solver dlm|uvlm] [--designs 30] [--top 14]
+    python -m benchmarks.profile_structure [--solver dlm|uvlm] [--designs 30] [--top 14] [--tracking eigen|continuation]
 
 Builds the cropped-delta basis and ROMs at the paper's 5 Machs in process (as ``benchmarks.run``), then profiles
 (one BLAS thread) modal analysis + ``evaluate_structure`` of ``--designs`` designs one at a time, and modal analysis
@@ -66,13 +66,17 @@ def main() -> None:
     ap.add_argument("--solver", default="dlm", choices=["dlm", "uvlm"])
     ap.add_argument("--designs", type=int, default=30)
     ap.add_argument("--top", type=int, default=14)
+    ap.add_argument("--tracking", choices=["eigen", "continuation"], default=None, help="branch tracker of the "
+                    "flutter searches (default: the flutter default)")
     args = ap.parse_args()
     bench.SOLVER["name"] = args.solver
     models = bench.build_models(samples=25)
     wing, mesh, basis, roms = models["wing"], models["mesh"], models["basis"], models["roms"]
     zeta = wing.modal_damping or None
     designs = random_designs(wing, args.designs + 1, seed=1)
-    kw = dict(mac_threshold=basis.mac_threshold, zeta=zeta)
+    kw: dict[str, Any] = dict(mac_threshold=basis.mac_threshold, zeta=zeta)
+    if args.tracking is not None:
+        kw["flutter_options"] = {"tracking": args.tracking}
     evaluate_structure(modal_analysis(wing, designs[0], 4, mesh), basis.shapes, roms, **kw)  # warm-up
     eig_ms = bench.eig_calibration_ms()
 
@@ -90,7 +94,8 @@ def main() -> None:
     n, nm = args.designs, len(roms)
     t0 = time.process_time()
     modal_only()
-    out = {"solver": args.solver, "designs": n, "machs": sorted(roms), "eig_calibration_ms": eig_ms,
+    out = {"solver": args.solver, "tracking": args.tracking, "designs": n, "machs": sorted(roms),
+           "eig_calibration_ms": eig_ms,
            "rom_states": [int(r.ss.A.shape[0]) for _, r in sorted(roms.items())],
            "modal_ms_per_structure": 1e3 * (time.process_time() - t0) / n,
            "alone": _case(one, n, nm, eig_ms, args.top), "batch": _case(many, n, nm, eig_ms, args.top)}

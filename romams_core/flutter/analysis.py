@@ -9,7 +9,10 @@ from typing import Any
 
 import numpy as np
 
+from romams_core.errors import InputError
+
 from .batch import run_one, run_searches
+from .continuation import ContinuationTracker
 from .crossing import make_bracket, refine_crossing
 from .curves import vg_curves
 from .inputs import check_flutter_inputs, check_search_options
@@ -33,22 +36,30 @@ class _Search:
     track_weight: float
     rtol: float
     k_band: float | None
+    tracking: str
+
+
+TRACKERS = {"continuation": ContinuationTracker, "eigen": Tracker}  # docs/flutter.md 9.7
+DEFAULT_TRACKING = "eigen"  # the continuation takes 5-6 eigen-solves per search instead of 24-38, but costs more
+# Python time per search than the solves it saves (docs/performance.md 3)
 
 
 def flutter_analysis(omega: np.ndarray, aero: Any, c_ref: float, mach: float, **options: Any) -> FlutterResult:
     """Flutter search at one Mach number for structure ``omega`` [k] (rad/s) and modal aero ROM ``aero``.
 
     ``aero`` has A, B, C, D, dt_star (discrete, t* = t V / c_ref, inputs xi, outputs f = F / q); ``c_ref`` in m.
-    ``options`` (keywords of ``prepare_search``): sweep ("constant-speed"), coupling ("tustin"), zeta, the
-    reference state (altitude_ref_m = 10 km, or rho_ref, a_ref), the ranges v_max (m/s, constant-density;
-    default 3 M a_ref, at Mach 0 omega_max c_ref), q_max (Pa, constant-speed; default 4 x 0.5 rho_ref (M a_ref)^2),
-    altitude_range_m (matched); n_points coarse sweep points (the tracker refines where needed, so the flutter
-    point does not depend on it); rtol of the crossing (brentq); SDOFF when the flutter vector's largest modal
-    share is >= sdoff_share AND that mode alone is unstable at q <= sdoff_q_factor q_f; k_band (reduced frequency
-    on c_ref / 2): a flutter point above the band the ROM was identified in is flagged ``outside_band``. Reports
-    the TRUE speed ``v_flutter_m_s`` and the equivalent airspeed ``v_eas_m_s``; no flutter in range is a result
-    with flutter_found False. Invalid input raises romams_core.errors.InputError naming the field. The same
-    search as one member of ``flutter_batch``.
+    ``options`` (keywords of ``prepare_search``): sweep ("constant-speed"), coupling ("tustin"), zeta, the reference
+    state (altitude_ref_m = 10 km, or rho_ref, a_ref), the ranges v_max (m/s, constant-density; default 3 M a_ref,
+    at Mach 0 omega_max c_ref), q_max (Pa, constant-speed; default 4 x 0.5 rho_ref (M a_ref)^2), altitude_range_m
+    (matched); n_points coarse sweep points (the tracker refines where needed, so the flutter point does not depend
+    on it); rtol of the crossing (brentq, then polished to 1e-11); tracking: "eigen" (one full eigen-solve per sweep
+    point, ``tracking.Tracker``) or "continuation" (Newton on det T(s) between a few eigen-solves,
+    ``continuation.ContinuationTracker``; the same flutter points); SDOFF when the flutter vector's largest modal
+    share is >= sdoff_share AND that mode alone is unstable at q <= sdoff_q_factor q_f; k_band (reduced frequency on
+    c_ref / 2): a flutter point above the band the ROM was identified in is flagged ``outside_band``. Reports the
+    TRUE speed ``v_flutter_m_s`` and the equivalent airspeed ``v_eas_m_s``; no flutter in range is a result with
+    flutter_found False. Invalid input raises romams_core.errors.InputError naming the field. The same search as one
+    member of ``flutter_batch``.
     """
     return run_one(flutter_search(prepare_search(omega, aero, c_ref, mach, **options)))
 
@@ -71,6 +82,7 @@ def prepare_search(
     v_max: float | None = None, q_max: float | None = None,
     altitude_range_m: tuple[float, float] = (0.0, 20_000.0), n_points: int = 12, sdoff_share: float = 0.9,
     sdoff_q_factor: float = 1.1, track_weight: float = 0.5, rtol: float = 1e-4, k_band: float | None = None,
+    tracking: str = DEFAULT_TRACKING,
 ) -> _Search:
     """The validated search of ``flutter_analysis`` (its docstring; InputError naming the field)."""
     om, zt, c_ref, mach = check_flutter_inputs(omega, zeta, c_ref, mach, sweep)
@@ -80,14 +92,16 @@ def prepare_search(
     sw = make_sweep(sweep, mach, om, c_ref, rho_ref, a_ref, v_max, q_max, altitude_range_m)
     head: dict[str, Any] = dict(mach=mach, sweep=sweep, coupling=coupling, rho_ref=rho_ref, a_ref=a_ref,
                                 c_ref=c_ref, dt_star=model.dt_star, altitude_ref_m=h_ref)
+    if tracking not in TRACKERS:
+        raise InputError("tracking", f"must be one of {sorted(TRACKERS)}, got {tracking!r}")
     return _Search(model, sw, head, int(n_points), float(sdoff_share), float(sdoff_q_factor), track_weight,
-                   float(rtol), None if k_band is None else float(k_band))
+                   float(rtol), None if k_band is None else float(k_band), tracking)
 
 
 def flutter_search(se: _Search) -> Solve[FlutterResult]:
     """The search (a generator of eigen requests, batch.py) -> FlutterResult."""
     sw, om = se.sweep, se.model.omega
-    tracker = Tracker(se.model, sw, se.track_weight)
+    tracker = TRACKERS[se.tracking](se.model, sw, se.track_weight)
     path = yield from tracker.track_search(sw.grid(se.n_points))
     head: dict[str, Any] = dict(se.head, **_vg_data(sw, path), modal_share=np.zeros(om.size),
                                 lag_root_flagged=path.lag)

@@ -22,6 +22,8 @@ from .newton import NoRoot, RootRequest
 from .tracking import G_UNSTABLE, Branches, Path, Solve, Tracker
 
 BRENTQ_MAXITER = 100  # scipy.optimize.brentq's default
+POLISH_TOL = 1e-11  # secant polish of brentq's crossing: last step below this (relative)
+POLISH_MAXIT = 8
 
 
 def brentq(f: Callable[[float], Solve[float]], xa: float, xb: float, xtol: float, rtol: float,
@@ -178,8 +180,35 @@ def _refine(br: Bracket, f: ReFn, rtol: float) -> Solve[list[float]]:
             def fj(p: float, jb: int = jb) -> Solve[float]:
                 return (yield from f(p, jb))
 
-            out.append((yield from brentq(fj, br.lo_p, br.hi_p, rtol * scale * 1e-3, max(rtol, 1e-14))))
+            p_b = yield from brentq(fj, br.lo_p, br.hi_p, rtol * scale * 1e-3, max(rtol, 1e-14))
+            out.append((yield from _polish(fj, p_b, br.lo_p, br.hi_p, rtol)))
     return out
+
+
+def _polish(f: Callable[[float], Solve[float]], p_b: float, lo: float, hi: float, rtol: float) -> Solve[float]:
+    """brentq's crossing p_b polished by secant steps on f to ``POLISH_TOL`` relative, so that the crossing does not
+    depend on the bracket (i.e. on the tracked path); p_b itself when the secant leaves (lo, hi) or stalls, the
+    point of smallest |f| when f reaches its rounding level first."""
+    step = rtol * max(abs(p_b), 1e-300)
+    x0, x1 = p_b, p_b - step if p_b - step > lo else p_b + step
+    if not lo < x1 < hi:
+        return p_b
+    f0 = yield from _fval(f, x0)
+    f1 = yield from _fval(f, x1)
+    best, f_best = (x0, f0) if abs(f0) <= abs(f1) else (x1, f1)
+    for _ in range(POLISH_MAXIT):
+        if f1 == f0:
+            return best
+        x2 = x1 - f1 * (x1 - x0) / (f1 - f0)
+        if not lo < x2 < hi:
+            return p_b
+        f2 = yield from _fval(f, x2)
+        if abs(f2) < abs(f_best):
+            best, f_best = x2, f2
+        if abs(x2 - x1) <= POLISH_TOL * abs(x2) or f2 == 0.0:
+            return best
+        x0, f0, x1, f1 = x1, f1, x2, f2
+    return best  # f at its rounding level (e.g. eigenvalues of full eigen-solves): the smallest |f| seen
 
 
 def _refine_fast(tracker: Tracker, br: Bracket, rtol: float) -> Solve[tuple[list[float], EigData | None] | None]:

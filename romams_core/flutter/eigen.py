@@ -32,11 +32,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.linalg.lapack
 
 from .model import Model
 
-_zgesv = scipy.linalg.lapack.zgesv
 CONTENT_MIN = 0.1  # structural content below this (and near an aero pole): an aerodynamic lag root
 LAG_NEAR = 0.25  # |s / vc - lam_a| / |lam_a| below this: near that aero pole
 
@@ -100,6 +98,80 @@ def _rate_terms(
     return -q[:, None] * (sv * d1 + sv * sv * d2), -qv * (d1 + 2.0 * sv * d2)
 
 
+Resolvent = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def resolvent_terms(m: Model, sstar: np.ndarray) -> Resolvent:
+    """C (s* I - A)^-1 B and C (s* I - A)^-2 B [M, k*k] (flattened) of the Tustin aero model at s* = s c_ref / V [M],
+    whether s* sits exactly on an aero pole [M] (both terms 0 there) and whether it is within ``LAG_NEAR`` of one [M].
+
+    From the pole residues when the aero matrix is diagonalized (H - D = sum_i res_i / (s* - lam_i)); else (the
+    reference path: defective aero matrix) by dense solves with s* I - A.
+    """
+    if m.lam_a is not None and m.res is not None:
+        return resolvent_diag(sstar, m.lam_a, m.res)
+    return resolvent_dense(sstar, m.a, m.b, m.c, m.poles)
+
+
+def resolvent_diag(sstar: np.ndarray, lam_a: np.ndarray, res: np.ndarray) -> Resolvent:
+    """``resolvent_terms`` from poles lam_a [na] or [M, na] and residues res [na, k*k] or [M, na, k*k]."""
+    r = 1.0 / (sstar[:, None] - lam_a)  # [M, na]
+    # a root exactly on an aero pole is an aero state the structure does not drive or see (a repeated pole of
+    # an RFA ROM has more copies than modes): a pure aero root, structural part 0, content 0, a lag root
+    on_pole = ~np.isfinite(r).all(axis=1)
+    r[on_pole] = 0.0
+    near = (np.abs(r) > 1.0 / (LAG_NEAR * np.abs(lam_a))).any(axis=1) | on_pole  # |s* - lam_i| < LAG_NEAR |lam_i|
+    if res.ndim == 2:
+        return r @ res, (r * r) @ res, on_pole, near
+    return (r[:, None, :] @ res)[:, 0, :], ((r * r)[:, None, :] @ res)[:, 0, :], on_pole, near
+
+
+def resolvent_dense(sstar: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
+                    poles: np.ndarray) -> Resolvent:
+    """``resolvent_terms`` by dense solves: a [na, na] or [M, na, na], b, c likewise, poles [np] or [M, np]."""
+    n = sstar.size
+    shifted = sstar[:, None, None] * np.eye(a.shape[-1]) - a  # [M, na, na]
+    x = np.linalg.solve(shifted, np.broadcast_to(b, (n,) + b.shape[-2:]))  # (s* I - A)^-1 B
+    h1 = (c @ x).reshape(n, -1)
+    h2 = (c @ np.linalg.solve(shifted, x)).reshape(n, -1)
+    on_pole = ~(np.isfinite(h1).all(axis=1) & np.isfinite(h2).all(axis=1))
+    h1[on_pole] = 0.0
+    h2[on_pole] = 0.0
+    near = on_pole.copy()
+    if poles.shape[-1]:
+        near |= (np.abs(sstar[:, None] - poles) < LAG_NEAR * np.abs(poles)).any(axis=1)
+    return h1, h2, on_pole, near
+
+
+def null_vectors(t: np.ndarray, ss: np.ndarray, g: np.ndarray, omega: np.ndarray, dta: np.ndarray,
+                 dt_rate: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Normalized structural vectors [xi; s xi / omega] [M, 2k] and structural content [M] of roots ss [M] (rad/s)
+    from T(ss) [M, k*k], the aero states' part of dT/ds dta = -q dH_lag/ds [M, k*k] and the D1, D2 part dt_rate
+    (``struct_vectors``); g = 2 zeta omega and omega [k] or [M, k]. NaN rows where T is exactly singular."""
+    k = omega.shape[-1]
+    t3 = t.reshape(-1, k, k)
+    try:
+        ti = np.linalg.inv(t3)  # T^-1 ~ xi eta^H / sigma_min: right and left null vectors
+    except np.linalg.LinAlgError:  # one at a time, so that an exactly singular T spoils only its own row (NaN)
+        ti = np.full(t3.shape, np.nan, complex)
+        for i in range(t3.shape[0]):
+            try:
+                ti[i] = np.linalg.inv(t3[i])
+            except np.linalg.LinAlgError:
+                pass
+    rhs = _rhs(k)
+    y = (ti @ rhs)[..., 0]  # xi (one inverse-iteration step)
+    zc = (rhs.conj().T @ ti)[:, 0, :]  # eta^H
+    x = np.concatenate([y, (ss[:, None] / omega) * y], axis=1)
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    dts = (2.0 * ss[:, None] + g) * y  # structural part of dT/ds applied to xi
+    if dt_rate is not None:  # D1, D2 act on the structural states (mass and damping): structural participation
+        dts = dts + (dt_rate.reshape(-1, k, k) @ y[:, :, None])[:, :, 0]
+    ps = np.abs(np.sum(zc * dts, axis=1))
+    pa = np.abs((zc[:, None, :] @ (dta.reshape(-1, k, k) @ y[:, :, None]))[:, 0, 0])
+    return x, ps / (ps + pa)
+
+
 def struct_vectors(
     m: Model, lam: np.ndarray, v: np.ndarray, q: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -114,43 +186,21 @@ def struct_vectors(
     a repeated RFA pole) is a pure aero root: structural part 0, content 0, lag root (as its full eigenvector).
     None when ill-defined (non-finite, T exactly singular): the caller then uses the full eigenvectors.
     """
-    assert m.lam_a is not None and m.res is not None
     k = m.k
     sel, paired = _pair_selection(lam)
     rows = np.nonzero(sel)[0]
     ss = lam[sel]
-    nm = ss.size
     with np.errstate(all="ignore"):
         vc = (v / m.c_ref)[rows]
-        r = 1.0 / ((ss / vc)[:, None] - m.lam_a)  # vc / (s - vc lam_i) = 1 / (s* - lam_i) [M, na]
-        # a root exactly on an aero pole is an aero state the structure does not drive or see (a repeated pole of
-        # an RFA ROM has more copies than modes): a pure aero root, structural part 0, content 0, a lag root
-        on_pole = ~np.isfinite(r).all(axis=1)
-        r[on_pole] = 0.0
-        near = (np.abs(r) > m.near_r).any(axis=1) | on_pole  # |s* - lam_i| < LAG_NEAR |lam_i| for some pole i
-        rr = np.concatenate([r, r * r]) @ m.res  # [2M, k*k]: H - D, and -vc dH/ds
-        t = (m.d.ravel() + rr[:nm]) * (-q[rows])[:, None]
+        h1, h2, on_pole, near = resolvent_terms(m, ss / vc)
+        t = (m.d.ravel() + h1) * (-q[rows])[:, None]  # h1 = H - D, h2 = -vc dH/ds
         g = 2.0 * m.zeta * m.omega
         t[:, :: k + 1] += (ss[:, None] + g) * ss[:, None] + m.omega**2
         t_rate, dt_rate = _rate_terms(m, ss, vc, q[rows])
         if t_rate is not None:
             t += t_rate
-        try:
-            ti = np.linalg.inv(t.reshape(-1, k, k))  # T^-1 ~ xi eta^H / sigma_min: right and left null vectors
-        except np.linalg.LinAlgError:
-            return None
-        rhs = _rhs(k)
-        y = (ti @ rhs)[..., 0]  # xi (one inverse-iteration step)
-        zc = (rhs.conj().T @ ti)[:, 0, :]  # eta^H
-        x = np.concatenate([y, (ss[:, None] / m.omega) * y], axis=1)
-        x /= np.linalg.norm(x, axis=1, keepdims=True)
-        dts = (2.0 * ss[:, None] + g) * y  # structural part of dT/ds applied to xi
-        if dt_rate is not None:  # D1, D2 act on the structural states (mass and damping): structural participation
-            dts = dts + (dt_rate.reshape(-1, k, k) @ y[:, :, None])[:, :, 0]
-        ps = np.abs(np.sum(zc * dts, axis=1))
-        dta = rr[nm:].reshape(-1, k, k) * (q[rows] / vc)[:, None, None]  # -q dH_lag/ds (the aero states' part)
-        pa = np.abs((zc[:, None, :] @ (dta @ y[:, :, None]))[:, 0, 0])
-        cont = ps / (ps + pa)
+        dta = h2 * (q[rows] / vc)[:, None]  # -q dH_lag/ds (the aero states' part of dT/ds)
+        x, cont = null_vectors(t, ss, g, m.omega, dta, dt_rate)
         x[on_pole] = 0.0
         cont[on_pole] = 0.0
     if not (np.isfinite(x).all() and np.isfinite(cont).all()):

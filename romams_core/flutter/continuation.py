@@ -1,0 +1,238 @@
+"""Continuation of the structural branches in p by Newton on det T(s), with full eigen-solves only where needed.
+
+``ContinuationTracker`` builds the same ``tracking.Path`` as ``Tracker`` (the coarse points, the states, the first
+unstable point), but reaches the points by predictor-corrector steps instead of one eigen-solve per point:
+
+- predictor: the quadratic (or, with less history, linear) extrapolation of each branch's eigenvalue in the
+  continuation coordinate x (``Sweep.x``) through the last points of the path;
+- corrector: Newton on det T(s) from the prediction for the k branches together (one ``newton.RootsRequest``,
+  iterated with the requests of every other search of the round, ``batch.py``); the structural vectors, content and
+  lag flags of the k roots come from the null vectors of T(s) (``newton.roots_and_vectors``, batched as well);
+- a step is accepted when every branch converged to its own root (no two branches on the same root), each root
+  lies within ``PRED_TOL`` (relative) of its prediction, keeps MAC >= ``MAC_STEP`` with the previous vector, is no
+  lag root and changes its structural content by less than ``tracking.CONTENT_JUMP``; before the first unstable
+  point a step where a branch of structural content below 0.5 loses more of it (veering with a lag root) goes to the
+  full spectrum at once (its assignment's content terms choose the more structural root, as ``Tracker`` does), and
+  the damping-hump test ``tracking._may_cross`` must pass (a crossing between two stable points is
+  not skipped), down to the sweep's minimum step. The step grows (x 2) when the corrector lands close to the
+  predictor and shrinks (/ 4) on a rejected step;
+- a full eigen-solve resolves what Newton cannot: a step rejected at the smallest Newton step ``H_MIN`` (of the
+  natural range) is taken by ``Tracker._advance`` (Hungarian assignment of the full spectrum, its split rules),
+  and after ``FALLBACKS`` such steps in a row the rest of the way to the next target point as well;
+  and at the fixed checkpoints ``CHECKPOINTS`` (fractions of the sweep's range, independent of the coarse grid)
+  the Newton states are compared, after the sweep and in one eigen-solve request, with the assignment of the full
+  spectrum from the point before each; at the first that differs (a root that entered between the branches, or a
+  branch that slid onto another root) the path is cut, the full-spectrum step replaces the Newton one and the
+  continuation resumes from there.
+
+A Tustin model whose aero matrix is not diagonalized (defective, the reference path) gets T(s) from dense solves
+with s* I - A (``eigen.resolvent_terms``), so both paths continue the branches alike; the zero-order hold has no
+det T(s) of this form and uses ``Tracker`` unchanged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .eigen import EigData
+from .newton import RootRequest, RootsRequest
+from .tracking import CONTENT_AWAY, G_UNSTABLE, Branches, Path, Solve, Tracker, _content_jump, _may_cross, assign
+
+PRED_TOL = 0.05  # corrector farther than this (relative to max(|s|, omega_j)) from the predictor: step rejected
+PRED_TOL_POST = 0.3  # the same after the first unstable point (the steps there only shape the V-g curves)
+GROW = 8.0  # corrector within PRED_TOL / GROW of the predictor: next step doubled
+MAC_STEP = 0.9  # smallest MAC of a branch's vector with its previous one on an accepted Newton step
+SAME_ROOT = 1e-6  # two branches closer than this (relative) sit on the same root
+H_MIN = 2.0**-9  # smallest Newton step (of the natural range) before a full eigen-solve resolves the step
+CHECKPOINTS = (0.25, 0.5, 1.0)  # fractions of the sweep range where the Newton state is checked by a full solve
+MATCH_TOL = 1e-6  # Newton root and full-spectrum assignment agree to this (relative)
+VEER_DROP = 0.002  # content loss in one step of a branch below content 0.5 that sends the step to the full spectrum
+FALLBACKS = 4  # full-spectrum steps of length H_MIN in a row after which the full spectrum takes the step to the target
+
+
+HUMP = "hump"  # rejection of a step by the damping-hump test (shrinks to the sweep's minimum step, no eigen-solve)
+FULL = "full"  # a step the full spectrum must take at once (a branch of structural content below 0.5)
+
+
+class ContinuationTracker(Tracker):
+    """Branch continuation by Newton on det T(s) (module docstring); ``Tracker`` for models without it."""
+
+    newton_last = False  # the path's last point came from a Newton step (not yet checked by a full solve)
+
+    def track_search(self, grid: np.ndarray) -> Solve[Path]:
+        """The path over the coarse grid (``Tracker.track_search``'s points and result), by continuation."""
+        m = self.m
+        if m.coupling != "tustin":
+            return (yield from super().track_search(grid))
+        sw = self.sweep
+        start = sw.start_points()
+        start = start[start < grid[0]]
+        span = sw.p_end - sw.p_start
+        pts = np.concatenate([start, grid])
+        checks = sw.p_start + span * np.array(CHECKPOINTS)
+        near = np.abs(checks[:, None] - pts[None, :]) <= 1e-9 * span  # a checkpoint on a target point: that point
+        checks = np.where(near.any(axis=1), pts[np.argmax(near, axis=1)], checks)
+        pts = np.union1d(pts, checks)
+        coarse = set(grid.tolist())
+        check_set = set(checks.tolist())
+        p0 = np.array([sw.p_start])
+        path = Path([sw.p_start], [self.start()], [float(sw.x(p0, *sw.cond(p0))[0])])
+        h = float(pts[0] - sw.p_start)
+        todo = pts
+        while True:
+            marks = yield from self._run(path, todo.tolist(), coarse, check_set, h)
+            bad = yield from self._verify(path, marks)
+            if bad is None:
+                return path
+            i, e_c = bad  # the checkpoint path.p[i] disagrees with the full spectrum: retrack from it
+            p_c = path.p[i]
+            del path.p[i:], path.states[i:], path.x[i:]
+            path.coarse = [c for c in path.coarse if c < i]
+            if path.first_unstable is not None and path.first_unstable >= i:
+                path.first_unstable = None
+            yield from self._advance(path, p_c, e_c, 0)
+            self.newton_last = False
+            if p_c in coarse:
+                path.coarse.append(len(path.p) - 1)
+            todo = pts[pts > p_c]
+            h = p_c - path.p[-2]
+
+    def _run(self, path: Path, todo: list[float], coarse: set[float], check_set: set[float],
+             h: float) -> Solve[list[int]]:
+        """Continue the path over the target points ``todo``; the path indices of the checkpoints reached by Newton."""
+        marks = []
+        for p_t in todo:
+            h = yield from self._continue_to(path, p_t, h)
+            if p_t in check_set and self.newton_last:
+                marks.append(len(path.p) - 1)
+            if p_t in coarse:
+                path.coarse.append(len(path.p) - 1)
+        return marks
+
+    def _verify(self, path: Path, marks: list[int]) -> Solve[tuple[int, EigData] | None]:
+        """Check the checkpoints (path indices ``marks``) against one full eigen-solve of all of them: the first one
+        whose Newton state is not the Hungarian assignment of the full spectrum from the point before it (index and
+        its eigen-data), None when all agree."""
+        if not marks:
+            return None
+        e = yield from self.eig(np.array([path.p[i] for i in marks]))
+        for j, i in enumerate(marks):
+            full, check = assign(path.states[i - 1], e.point(j), self.weight, self.m.omega)
+            st = path.states[i]
+            scale = np.maximum(np.abs(st.lam), self.m.omega)
+            if check.ambiguous or np.max(np.abs(full.lam - st.lam) / scale) >= MATCH_TOL:
+                return i, e.point(j)
+        return None
+
+    def _continue_to(self, path: Path, p_t: float, h: float) -> Solve[float]:
+        """Advance the path to p_t by Newton steps (first step h); returns the next step length."""
+        sw = self.sweep
+        fails = 0
+        while path.p[-1] < p_t:
+            p0 = path.p[-1]
+            p1 = p_t if p0 + 1.25 * h >= p_t else p0 + h
+            res = yield from self._newton_point(path, p1)
+            if isinstance(res, tuple):
+                new, x1, err = res
+                self._append(path, p1, x1, new)
+                self.newton_last = True
+                fails = 0
+                h = max(h, p1 - p0) * (2.0 if err < self._pred_tol(path) / GROW else 1.0)  # a step cut short by
+                # the target keeps the step length it came with
+                continue
+            if res != FULL and (p1 - p0 > H_MIN * sw.scale_at(p0) or res == HUMP):
+                h = 0.25 * (p1 - p0)
+                continue
+            # Newton cannot resolve the step: the full-spectrum tracker takes it (and, after FALLBACKS such steps in
+            # a row, the rest of the way to the target)
+            fails += 1
+            p1 = p_t if fails >= FALLBACKS else p1
+            e1 = yield from self.eig(np.array([p1]))
+            yield from self._advance(path, p1, e1, 0)
+            self.newton_last = False
+            h = p1 - p0
+        return h
+
+    @staticmethod
+    def _pred_tol(path: Path) -> float:
+        """Largest accepted predictor error: ``PRED_TOL`` before the first unstable point, ``PRED_TOL_POST`` after."""
+        return PRED_TOL if path.first_unstable is None else PRED_TOL_POST
+
+    def _append(self, path: Path, p1: float, x1: float, new: Branches) -> None:
+        """Append an accepted point; mark the first unstable point."""
+        careful = path.first_unstable is None
+        path.p.append(p1)
+        path.x.append(x1)
+        path.states.append(new)
+        if careful and np.any(path.g(-1) > G_UNSTABLE):
+            path.first_unstable = len(path.p) - 1
+
+    def _predict(self, path: Path, x1: float) -> np.ndarray:
+        """Predicted branch eigenvalues [k] at coordinate x1 (quadratic / linear extrapolation in x)."""
+        xs, st = path.x, path.states
+        n = min(len(xs), 3)
+        if n == 1:
+            return st[-1].lam.copy()
+        xa = xs[-n:]
+        out = np.zeros(st[-1].lam.size, complex)
+        for i in range(n):  # Lagrange basis through the last n points
+            w = 1.0
+            for j in range(n):
+                if j != i:
+                    w *= (x1 - xa[j]) / (xa[i] - xa[j])
+            out += w * st[i - n].lam
+        return out
+
+    def _newton_point(self, path: Path, p1: float) -> Solve[tuple[Branches, float, float] | str | None]:
+        """(state, x1, predictor error) of the Newton corrector at p1; None when the step is ambiguous, ``HUMP``
+        when only the damping-hump test rejects it, ``FULL`` when the full spectrum must take it (``_veers``)."""
+        m, sw = self.m, self.sweep
+        v, rho = sw.cond(np.array([p1]))
+        q = 0.5 * rho * v**2
+        x1 = float(sw.x(np.array([p1]), v, rho)[0])
+        pred = self._predict(path, x1)
+        prev = path.states[-1]
+        scale = np.maximum(np.abs(prev.lam), m.omega)
+        vc = float(v[0]) / m.c_ref
+        roots, data = yield RootsRequest([RootRequest(m, vc, float(q[0]), complex(s0), float(sc))
+                                          for s0, sc in zip(pred.tolist(), scale.tolist(), strict=True)])
+        if any(d is None for d in data):
+            return None
+        lam = np.array(roots, complex)
+        err = float(np.max(np.abs(lam - pred) / scale))
+        d = np.minimum(np.abs(lam[:, None] - lam[None, :]), np.abs(lam[:, None] - lam[None, :].conj()))
+        sep = d / scale[:, None] + np.eye(lam.size)  # a root and its conjugate are one root (one mode pair)
+        if err > self._pred_tol(path) or sep.min() < SAME_ROOT:
+            return None
+        if any(d[2] for d in data):  # a branch on a lag root
+            return None
+        vec = np.stack([d[0] for d in data], axis=1)
+        content = np.array([d[1] for d in data])
+        if float(np.min(np.abs(np.sum(prev.vec.conj() * vec, axis=0)) ** 2)) < MAC_STEP:
+            return None
+        new = Branches(lam, vec, prev.lag, content)
+        if _content_jump(prev, new, m.omega):
+            return None
+        if path.first_unstable is None and self._veers(prev, new):
+            return FULL
+        if path.first_unstable is None and self._hump(path, p1, x1, new):
+            return HUMP
+        return new, x1, err
+
+    def _veers(self, prev: Branches, new: Branches) -> bool:
+        """True when an oscillatory branch of structural content below 0.5 loses more of it (by ``VEER_DROP``) in
+        the step: it veers with a lag root (they exchange their character), which the full spectrum's assignment
+        resolves (its content terms take the more structural root, as ``Tracker`` does)."""
+        if prev.content is None or new.content is None:
+            return False
+        om = self.m.omega
+        away = (np.abs(prev.lam) > CONTENT_AWAY * om) & (np.abs(new.lam) > CONTENT_AWAY * om)
+        return bool(np.any(away & (new.content < 0.5) & (prev.content - new.content > VEER_DROP)))
+
+    def _hump(self, path: Path, p1: float, x1: float, new: Branches) -> bool:
+        """True when a branch's damping could cross zero inside the step (``_may_cross``) and the step can shrink."""
+        if len(path.p) < 3 or p1 - path.p[-1] <= self.sweep.min_step(path.p[-1]):
+            return False
+        g_new = 2.0 * new.lam.real / np.abs(new.lam)
+        xs = (path.x[-2], path.x[-1], x1)
+        return _may_cross(xs, np.array([path.g(-2), path.g(-1), g_new]))
