@@ -1,7 +1,8 @@
 # Two commands on a fresh machine:  `make demo`  and  `make test`.
 PY ?= python3
-# the suite runs on 2 pytest-xdist workers (CI has 2 cores; many tests wait on services); PYTEST_ARGS= runs it serially
-PYTEST_ARGS ?= -n 2 --dist worksteal
+# the suite runs on 2 pytest-xdist workers (CI has 2 cores; many tests wait on services); loadgroup keeps the tests of
+# one expensive shared fixture on one worker (tests/conftest.py); PYTEST_ARGS= runs it serially
+PYTEST_ARGS ?= -n 2 --dist loadgroup
 VENV ?= .venv
 BIN := $(VENV)/bin
 

@@ -13,6 +13,7 @@ import sys
 
 import numpy as np
 import pytest
+from fast_settings import DLM_FAST
 from live_service import ROOT, LiveService
 
 from client import FlutterProblem, JobError, RomamsClient, RomamsError
@@ -41,7 +42,7 @@ def wing(client):
     wid = client.ensure_wing("cd-client", "cropped-delta")
     job = client.wait_job(client.start_basis(wid, samples=10, modes=4, seed=3), timeout_s=300, progress=False)
     assert job["result"]["n_basis"] >= 1
-    client.train(wid, list(MACHS), options={"reduce_order": "auto"}, timeout_s=600, progress=False)
+    client.train(wid, list(MACHS), options={"reduce_order": "auto", **DLM_FAST}, timeout_s=600, progress=False)
     return wid
 
 
@@ -103,7 +104,7 @@ def test_ensure_wing_is_idempotent(client) -> None:
 def test_training_is_listed_and_resubmission_returns_existing(client, wing) -> None:
     roms = client.list_roms(wing)
     assert sorted(round(r["mach"], 6) for r in roms) == list(MACHS)
-    items = client.start_training(wing, list(MACHS), options={"reduce_order": "auto"})
+    items = client.start_training(wing, list(MACHS), options={"reduce_order": "auto", **DLM_FAST})
     assert all(i["existing"] and i["rom_id"] is not None for i in items)
     assert sorted(client.get_wing(wing)["trained_machs"]) == list(MACHS)
 
@@ -225,7 +226,7 @@ def test_openmdao_component(client, wing) -> None:
 
 
 def test_train_returns_one_rom_per_mach(client, wing) -> None:
-    rows = client.train(wing, list(MACHS), options={"reduce_order": "auto"}, timeout_s=60, progress=False)
+    rows = client.train(wing, list(MACHS), options={"reduce_order": "auto", **DLM_FAST}, timeout_s=60, progress=False)
     assert sorted(float(r["mach"]) for r in rows) == list(MACHS)  # the ROMs of this call, once each
 
 

@@ -8,6 +8,7 @@ within 1 % in flutter speed (the issue's accuracy target; the benchmark runs 20 
 
 import numpy as np
 import pytest
+from fast_settings import DLM_FAST
 
 from romams.pipeline import own_mode_basis
 from romams_core.aero.dlm import DlmSolver
@@ -47,7 +48,7 @@ def test_cropped_delta_rom_ams_vs_rom_pms_vs_full_order_dlm_pk():
     wing = template("cropped-delta")
     mesh = standard_mesh(wing.planform)
     basis = build_basis_for_wing(wing, samples=12, modes=4, mac_threshold=0.9999, max_basis=8)
-    solver = DlmSolver()
+    solver = DlmSolver(refine=1)  # the three methods on one lattice: the coarsest (the lattice is not tested here)
     mach = 0.87
     rom = train_rfa_rom(mesh, basis.shapes, mach, solver)
     assert rom.max_fit_error < 0.01
@@ -98,7 +99,7 @@ def test_rfa_rom_flutter_point_does_not_depend_on_the_sweep_points():
     wing = template("cropped-delta")
     mesh = standard_mesh(wing.planform)
     basis = build_basis_for_wing(wing, samples=12, modes=4, mac_threshold=0.9999, max_basis=8)
-    roms = {m: train_rfa_rom(mesh, basis.shapes, m, DlmSolver()) for m in (0.87, 0.95)}
+    roms = {m: train_rfa_rom(mesh, basis.shapes, m, DlmSolver(), **DLM_FAST) for m in (0.87, 0.95)}
     for x in [None, *random_designs(wing, 2, seed=3)]:
         modal = modal_analysis(wing, x, 4, mesh)
         gamma = project(basis.shapes, modal.shapes).gamma

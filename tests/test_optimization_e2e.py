@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 import pytest
+from fast_settings import DLM_FAST
 from live_service import ROOT, LiveService
 
 from client import FlutterProblem, RomamsClient
@@ -34,7 +35,7 @@ def _example():
 def test_short_de_optimization_over_http(tmp_path) -> None:
     ex = _example()
     with LiveService(tmp_path / "svc", concurrency=1) as svc, RomamsClient(svc.url, timeout=120) as client:
-        wid = ex.prepare_service(client, "cd-e2e", MACHS, samples=10, basis_seed=1, train_options={},
+        wid = ex.prepare_service(client, "cd-e2e", MACHS, samples=10, basis_seed=1, train_options=DLM_FAST,
                                  log=lambda m: None, progress=False)  # the default solver: dlm
         problem = FlutterProblem(client, wid, machs=MACHS, mu=10.0)
         baseline = problem.baseline()

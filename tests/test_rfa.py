@@ -161,6 +161,9 @@ def test_structural_content_of_the_fast_path_equals_the_full_eigenvectors_with_d
     ({"max_lags": True}, "max_lags"),
     ({"fit_tol": 0.0}, "fit_tol"),
     ({"reduce_order": "some"}, "reduce_order"),
+    ({"lattice_refine": 0}, "lattice_refine"),
+    ({"lattice_refine": True}, "lattice_refine"),
+    ({"lattice_refine": 1}, "lattice_refine"),  # a solver without a lattice
 ])
 def test_training_settings_are_checked_before_the_solver_runs(kw, field):
     """train_rfa_rom validates its settings (check_rfa_settings, also used by the API) before the solver's run."""
@@ -177,3 +180,18 @@ def test_training_settings_are_checked_before_the_solver_runs(kw, field):
     with pytest.raises(InputError) as e:
         train_rfa_rom(mesh, np.zeros((mesh.n_nodes, 2)), 0.5, NeverCalled(), **kw)
     assert e.value.field == field
+
+
+def test_lattice_refine_trains_on_that_lattice():
+    """``lattice_refine`` gives the GAF table of ``DlmSolver(refine=n)``, whatever the passed solver's refinement."""
+    from romams_core.aero.dlm import DlmSolver
+    from romams_core.training_rfa import train_rfa_rom
+
+    wing = template("cropped-delta")
+    mesh = standard_mesh(wing.planform)
+    shapes = modal_analysis(wing, None, 2, mesh).shapes
+    k = np.array([0.0, 0.2, 0.5, 1.0])
+    rom = train_rfa_rom(mesh, shapes, 0.5, DlmSolver(), k_values=k, lattice_refine=1)
+    ref = DlmSolver(refine=1).gaf(mesh, shapes, 0.5, k)
+    np.testing.assert_allclose(rom.gaf, ref, rtol=1e-12, atol=1e-14 * np.abs(ref).max())
+    assert "refined 1x" in rom.solver_description

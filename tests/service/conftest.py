@@ -12,6 +12,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from fast_settings import DLM_FAST
 
 ROOT = Path(__file__).resolve().parents[2]
 CI = os.environ.get("CI", "").lower() == "true"
@@ -163,8 +164,9 @@ SQLITE_FAST = {"heartbeat_s": 0.5, "job_stale_s": 8.0, "batch_sync_max": 4, "syn
 @pytest.fixture(scope="package")
 def sqlite_service(tmp_path_factory):
     """The embedded configuration with a real worker subprocess (SQLite database and broker): a cropped-delta wing
-    "cd-test", a basis (6 LHS samples x 3 modes) and dlm ROMs at SQLITE_MACHS. Shared by test_api_sqlite.py and
-    test_runs.py (trained once per test process); a test may replace ``worker`` (it is stopped at the end)."""
+    "cd-test", a basis (6 LHS samples x 3 modes) and dlm ROMs at SQLITE_MACHS (DLM_FAST). Shared by
+    test_api_sqlite.py and test_runs.py (trained once per test process); a test may replace ``worker`` (it is
+    stopped at the end)."""
     from types import SimpleNamespace
 
     from fastapi.testclient import TestClient
@@ -187,7 +189,7 @@ def sqlite_service(tmp_path_factory):
             assert r.status_code == 202, r.text
             ns.basis_job = wait_job(client, r.json()["job_id"])
             assert ns.basis_job["status"] == "succeeded", (ns.basis_job, worker.log_tail())
-            r = client.post(f"/api/v1/wings/{ns.wing_id}/roms", json={"machs": SQLITE_MACHS})
+            r = client.post(f"/api/v1/wings/{ns.wing_id}/roms", json={"machs": SQLITE_MACHS, "options": DLM_FAST})
             assert r.status_code == 202, r.text
             ns.train_request = r.json()
             ns.train_jobs = [wait_job(client, j) for j in r.json()["job_ids"]]

@@ -7,6 +7,7 @@ import json
 from types import SimpleNamespace
 
 import pytest
+from fast_settings import DLM_FAST
 from fastapi.testclient import TestClient
 from typer.testing import CliRunner
 
@@ -30,7 +31,7 @@ def svc(tmp_path_factory):
             job = client.post(f"/api/v1/wings/{wid}/basis", json={"samples": 6, "modes": 3, "seed": 1}).json()
             first = wait_job(client, job["job_id"])
             assert first["status"] == "succeeded", worker.log_tail()
-            ids = client.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.87}).json()
+            ids = client.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.87, "options": DLM_FAST}).json()
             assert wait_job(client, ids["job_id"])["status"] == "succeeded", worker.log_tail()
             yield SimpleNamespace(client=client, wid=wid, data=data, worker=worker,
                                   basis_id=first["result"]["basis_id"])
@@ -72,7 +73,7 @@ def test_first_basis_is_active_and_a_new_basis_changes_nothing(svc, monkeypatch)
     assert r.status_code == 409 and r.json()["field"] == "machs"
     assert c.put(f"/api/v1/wings/{svc.wid}/active-basis", json={"basis_id": new_id}).json()["active_basis_id"] == new_id
     assert c.post(f"/api/v1/wings/{svc.wid}/flutter", json={"design": DESIGN}).status_code == 409
-    job = c.post(f"/api/v1/wings/{svc.wid}/roms", json={"mach": 0.87}).json()  # trains on the active basis
+    job = c.post(f"/api/v1/wings/{svc.wid}/roms", json={"mach": 0.87, "options": DLM_FAST}).json()  # the active basis
     assert wait_job(c, job["job_id"])["status"] == "succeeded"
     assert _evaluate(svc)["basis_id"] == new_id
     assert _evaluate(svc, basis_id=svc.basis_id)["results"][0]["q_flutter_pa"] == before["results"][0]["q_flutter_pa"]

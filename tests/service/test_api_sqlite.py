@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+from fast_settings import DLM_FAST
 
 from .conftest import SQLITE_MACHS, WorkerProcess, wait_job
 
@@ -51,7 +52,7 @@ def test_training_jobs_store_roms_and_resubmission_returns_existing(svc):
     for r in roms:
         assert r["solver"] == "dlm" and r["params"]["na"] == 0 and r["params"]["nb"] == 0  # the default solver
         assert max(r["summary"]["validation_nrmse"]) < 0.02  # the trainer's tolerance
-    again = svc.client.post(f"/api/v1/wings/{svc.wing_id}/roms", json={"machs": MACHS})
+    again = svc.client.post(f"/api/v1/wings/{svc.wing_id}/roms", json={"machs": MACHS, "options": DLM_FAST})
     assert again.status_code == 200
     items = again.json()["items"]
     assert all(i["existing"] for i in items)

@@ -11,6 +11,7 @@ import json
 
 import numpy as np
 import pytest
+from fast_settings import RFA_FAST
 from fastapi.testclient import TestClient
 
 from api.app import create_app
@@ -20,7 +21,6 @@ from .conftest import BACKENDS, SentTasks, backend_settings
 from .test_bad_input import problem
 
 _TRAINED: dict = {}
-RFA_FAST = {"k_values": [0.0, 0.1, 0.3, 0.6], "n_lags": 1}
 
 
 @pytest.fixture(params=BACKENDS)

@@ -14,6 +14,7 @@ import threading
 import time
 
 import pytest
+from fast_settings import DLM_FAST
 
 from .conftest import ROOT
 from .test_dashboard_browser import _chromium, server  # noqa: F401 - the `romams serve` fixture
@@ -64,7 +65,7 @@ def test_run_page_is_live_and_a_failed_job_shows_its_error(server):  # noqa: F81
     client = RomamsClient(base, timeout=120)
     wid = client.ensure_wing("cd-run-page", "cropped-delta")
     client.wait_job(client.start_basis(wid, samples=6, modes=3, seed=1), timeout_s=240, progress=False)
-    client.train(wid, MACHS, options={"k_values": FAST_K}, timeout_s=240, progress=False)
+    client.train(wid, MACHS, options={"k_values": FAST_K, **DLM_FAST}, timeout_s=240, progress=False)
     problem = FlutterProblem(client, wid, machs=MACHS, mu=10.0, run="DE demo: cropped delta")
     evaluate = problem.evaluate
 

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fast_settings import RFA_FAST
 from fastapi.testclient import TestClient
 
 from api.app import create_app
@@ -29,9 +30,7 @@ from .servers import PostgresServer, RedisServer
 
 pytestmark = pytest.mark.services
 
-#: a quick DLM training (about 5 s on an idle core): long enough to be running when the fault strikes
 DESIGN = [0.3, 0.4, 0.7, 0.05, 1.0, 1.0, 0.8]
-RFA_FAST = {"k_values": [0.0, 0.1, 0.3, 0.6], "n_lags": 1}
 FAST = {"heartbeat_s": 0.5, "job_stale_s": 6.0, "job_queued_resend_s": 3.0, "db_connect_timeout_s": 2,
         "sync_timeout_s": 60.0, "basis_chunk": 2}
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 import schemathesis
+from fast_settings import RFA_FAST
 from fastapi.testclient import TestClient
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
@@ -42,7 +43,6 @@ CHECKS = [not_a_server_error, status_code_conformance, content_type_conformance,
           response_schema_conformance, negative_data_rejection]
 #: generated cases per operation and mode (CI budget; ROMAMS_FUZZ_EXAMPLES raises it for a deeper local run)
 EXAMPLES = int(os.environ.get("ROMAMS_FUZZ_EXAMPLES", "20"))
-RFA_FAST = {"k_values": [0.0, 0.1, 0.3, 0.6], "n_lags": 1}
 
 
 def _seed(app, client: TestClient) -> dict[str, int]:

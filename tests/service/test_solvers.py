@@ -7,6 +7,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import pytest
+from fast_settings import DLM_FAST
 from fastapi.testclient import TestClient
 
 from api.app import create_app
@@ -27,7 +28,8 @@ def svc(tmp_path_factory):
             wid = client.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
             job = client.post(f"/api/v1/wings/{wid}/basis", json={"samples": 6, "modes": 3, "seed": 1}).json()
             assert wait_job(client, job["job_id"])["status"] == "succeeded", worker.log_tail()
-            for body in ({"mach": 0.87, "solver": "uvlm"}, {"mach": 0.87}):  # uvlm first: dlm must still win
+            # uvlm first: dlm must still win
+            for body in ({"mach": 0.87, "solver": "uvlm"}, {"mach": 0.87, "options": DLM_FAST}):
                 ref = client.post(f"/api/v1/wings/{wid}/roms", json=body).json()
                 done = wait_job(client, ref["job_id"])
                 assert done["status"] == "succeeded", worker.log_tail()
@@ -58,7 +60,7 @@ def test_both_solvers_are_stored_and_the_default_is_dlm(svc):
     assert any("phase" in w for w in uvlm["aero_warnings"])
     assert not any("phase" in w for w in default["aero_warnings"])
     # an identical request finds the stored ROM (na/nb do not matter for the dlm)
-    again = svc.client.post(f"/api/v1/wings/{svc.wid}/roms", json={"mach": 0.87, "na": 5})
+    again = svc.client.post(f"/api/v1/wings/{svc.wid}/roms", json={"mach": 0.87, "na": 5, "options": DLM_FAST})
     assert again.status_code == 200 and again.json()["rom_id"] == by_solver["dlm"]["id"]
 
 
@@ -70,6 +72,7 @@ def test_both_solvers_are_stored_and_the_default_is_dlm(svc):
     ({"mach": 0.8, "options": {"k_values": []}}, "options.k_values"),  # an empty reduced-frequency table
     ({"mach": 0.8, "options": {"k_values": [0.0, 0.5, 0.2, 1.0]}}, "options.k_values"),  # not ascending
     ({"mach": 0.8, "options": {"n_lags": 40}}, "options.n_lags"),
+    ({"mach": 0.8, "options": {"lattice_refine": 9}}, "options.lattice_refine"),
     ({"mach": 0.8, "solver": "vlm"}, "solver"),
 ])
 def test_bad_training_input_is_refused_and_changes_nothing(svc, body, field):

@@ -1,0 +1,9 @@
+"""Training settings of the tests that exercise the service, the tracker or the ROM-AMS transformation, not the
+accuracy of the doublet lattice itself (those tests train with the product's defaults)."""
+
+#: DLM ROM on one box per standard-mesh panel: about 7x faster training than the default 2x2 lattice
+#: (``romams_core.training_rfa.train_rfa_rom``, ``lattice_refine``)
+DLM_FAST = {"lattice_refine": 1}
+#: the smallest useful RFA ROM on the default lattice: four reduced frequencies, one lag (a smoke ROM for plumbing;
+#: test_faults.py needs its training to run for a few seconds)
+RFA_FAST = {"k_values": [0.0, 0.1, 0.3, 0.6], "n_lags": 1}
