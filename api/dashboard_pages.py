@@ -83,10 +83,13 @@ def run_page(request: Request, run_id: int, svc: Service = Depends(service)) -> 
     run = svc.store.runs.get(run_id)
     if run is None:
         return not_found(svc, f"no run {run_id}")
+    graded = run["settings"].get("penalty") == "graded"
+    penalty = (f'mass + {e(run["settings"]["mu_kg"])} kg x (1 + envelope excess in km + MAC deficit / 0.02 + SDOFF '
+               'Machs)' if graded else f'mass + {e(run["settings"]["mu_kg"])} kg')
     body = (f'<section id="run" data-run="{run["id"]}"><h2>Run {run["id"]}: {e(run["name"])} '
             f'<span id="run-status" class="badge"></span> <span id="poll-state" class="muted"></span></h2>'
             '<p id="run-counts" class="counts"></p>'
-            f'<p class="muted">created {when(run["created_at"])}; objective = mass + {e(run["settings"]["mu_kg"])} kg '
+            f'<p class="muted">created {when(run["created_at"])}; objective = {penalty} '
             f'when infeasible (envelope above the benchmark by more than {e(run["settings"]["envelope_tol_m"])} m, '
             f'SDOFF, or a mode fitted with MAC &lt; {e(run["settings"]["mac_threshold"])}); '
             f'<a href="/dashboard/jobs?run_id={run["id"]}">batches of this run</a></p>'

@@ -270,6 +270,10 @@ class RunCreate(_Strict):
                                               description="smallest acceptable mode-fit MAC (default 0.98)")
     envelope_tol_m: FiniteFloat | None = Field(default=None, ge=0.0, description="a safe altitude up to this much "
                                                "above the baseline's still passes (m, default 0.01)")
+    penalty: Literal["binary", "graded"] | None = Field(
+        default=None, description="C of objective = mass + mu_kg C for an infeasible design: 'binary' (default, the "
+        "paper's: C = 1) or 'graded' (C = 1 + envelope excess in km + MAC deficit / 0.02 + number of SDOFF Machs, "
+        "as the client's FlutterProblem(penalty='graded'))")
 
 
 class RunEvaluationOut(BaseModel):

@@ -12,7 +12,8 @@ import os
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 import numpy as np
@@ -26,6 +27,8 @@ from romams_core.mesh import StandardMesh, standard_mesh
 from romams_core.wing import WingDefinition, template
 
 Log = Callable[[str], None]
+#: fraction done (0-1), message (a CLI progress bar)
+Progress = Callable[[float, str], None]
 
 #: Mach numbers of the ROM-AMS paper's envelope.
 PAPER_MACHS = (0.79, 0.83, 0.87, 0.91, 0.95)
@@ -80,6 +83,7 @@ def ensure_basis(
     seed: int = 0,
     log: Log = _stderr,
     external: np.ndarray | None = None,
+    progress: Progress | None = None,
 ) -> tuple[int, Basis]:
     """(id, Basis): the stored basis built with these parameters, else build it now (saying so) and store it.
 
@@ -109,7 +113,7 @@ def ensure_basis(
     else:
         log(f"building the PCA basis of {wing.name!r}: {samples} LHS samples x {modes} modes, MAC >= {mac_threshold:g}")
         basis = build_basis_for_wing(wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
-                                     max_basis=max_basis, seed=seed)
+                                     max_basis=max_basis, seed=seed, progress=progress)
     bid = store.bases.save(wing_id, basis, params)
     active = activate_first_basis(store, wing_id, bid)
     log(f"basis {bid}: {basis.n_basis} shapes, worst sample MAC {basis.min_mac:.5f} ({time.perf_counter() - t0:.1f} s)"
@@ -117,19 +121,34 @@ def ensure_basis(
     return int(bid), basis
 
 
-def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], processes: int | None = None) -> list[Any]:
-    """Map ``fn`` over ``items`` in up to ``processes`` worker processes (default: CPU count), in order."""
+def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], processes: int | None = None,
+                 progress: Progress | None = None) -> list[Any]:
+    """Map ``fn`` over ``items`` in up to ``processes`` worker processes (default: CPU count), in order;
+    ``progress(fraction, message)`` after each item done."""
     n = min(len(items), processes or os.cpu_count() or 1)
+    out: list[Any] = [None] * len(items)
+
+    def done(k: int) -> None:
+        if progress is not None:
+            progress(k / max(len(items), 1), f"{k}/{len(items)} done")
+
     if n <= 1:
-        return [fn(x) for x in items]
+        for i, x in enumerate(items):
+            out[i] = fn(x)
+            done(i + 1)
+        return out
     with ProcessPoolExecutor(max_workers=n) as pool:
-        return list(pool.map(fn, items))
+        futures = {pool.submit(fn, x): i for i, x in enumerate(items)}
+        for k, fut in enumerate(as_completed(futures), 1):
+            out[futures[fut]] = fut.result()
+            done(k)
+    return out
 
 
 def train_shapes(mesh: StandardMesh, shapes: np.ndarray, machs: Sequence[float], ident: Mapping[str, Any],
-                 processes: int | None = None) -> list[Any]:
+                 processes: int | None = None, progress: Progress | None = None) -> list[Any]:
     """Train one ROM per Mach on ``shapes`` [N, m] (in parallel processes); returns TrainedRoms in order."""
-    return train_shape_sets(mesh, [shapes], machs, ident, processes)[0]
+    return train_shape_sets(mesh, [shapes], machs, ident, processes, progress)[0]
 
 
 def _train_group(args: tuple[StandardMesh, list[np.ndarray], float, dict[str, Any]]) -> list[Any]:
@@ -139,17 +158,26 @@ def _train_group(args: tuple[StandardMesh, list[np.ndarray], float, dict[str, An
 
 
 def train_shape_sets(mesh: StandardMesh, shape_sets: Sequence[np.ndarray], machs: Sequence[float],
-                     ident: Mapping[str, Any], processes: int | None = None) -> list[list[Any]]:
+                     ident: Mapping[str, Any], processes: int | None = None,
+                     progress: Progress | None = None) -> list[list[Any]]:
     """ROMs of several shape sets (e.g. the own modes of several structures) at every Mach: out[i][j] is set i at
     machs[j], trained in parallel processes. With a frequency-domain solver one process trains every set of a
     Mach, so its per-process cache of factorized AICs (one per Mach and reduced frequency) is built once per Mach;
     a time-domain solver's runs share nothing, so every (set, Mach) is a task of its own."""
+    if processes == 1 and progress is not None:  # in this process: the solvers' own progress, task by task
+        n = len(shape_sets) * len(machs)
+
+        def part(k: int) -> Progress:
+            return lambda frac, msg: progress((k + frac) / n, msg)
+
+        return [[train(mesh, shapes, float(m), ident, progress=part(i * len(machs) + j))
+                 for j, m in enumerate(machs)] for i, shapes in enumerate(shape_sets)]
     if is_frequency_solver(str(ident.get("solver", ""))):
         groups = [(mesh, list(shape_sets), float(m), dict(ident)) for m in machs]
-        by_mach = parallel_map(_train_group, groups, processes)
+        by_mach = parallel_map(_train_group, groups, processes, progress)
         return [[by_mach[j][i] for j in range(len(machs))] for i in range(len(shape_sets))]
     flat = parallel_map(_train_group, [(mesh, [shapes], float(m), dict(ident)) for shapes in shape_sets
-                                       for m in machs], processes)
+                                       for m in machs], processes, progress)
     n = len(machs)
     return [[rom for (rom,) in flat[i * n:(i + 1) * n]] for i in range(len(shape_sets))]
 
@@ -165,6 +193,7 @@ def ensure_roms(
     ident: Mapping[str, Any] | None = None,
     processes: int | None = None,
     log: Log = _stderr,
+    progress: Progress | None = None,
 ) -> dict[float, tuple[int, Any]]:
     """{mach: (rom_id, TrainedRom)}: stored ROMs with this identity, training the missing ones (in parallel)."""
     ident = dict(ident or rom_identity())
@@ -180,7 +209,7 @@ def ensure_roms(
         log(f"training {len(missing)} ROM(s) with {ident['solver']} on {basis.n_basis} basis shapes at Mach "
             + ", ".join(f"{m:g}" for m in missing))
         t0 = time.perf_counter()
-        roms = train_shapes(standard_mesh(wing.planform), basis.shapes, missing, ident, processes)
+        roms = train_shapes(standard_mesh(wing.planform), basis.shapes, missing, ident, processes, progress)
         for mach, rom in zip(missing, roms, strict=True):
             rid = store.roms.save(wing_id, basis_id, rom, ident)
             out[mach] = (int(rid), rom)
@@ -193,15 +222,21 @@ def ensure_roms(
 def cli_models(store: Any, wing_id: int, wing: WingDefinition, machs: Sequence[float], ident: Mapping[str, Any], *,
                basis_id: int | None = None, samples: int = 25, modes: int = DEFAULT_N_MODES,
                mac_threshold: float = DEFAULT_MAC_THRESHOLD, processes: int | None = None,
-               log: Log = _stderr, external: np.ndarray | None = None) -> Models:
+               log: Log = _stderr, external: np.ndarray | None = None,
+               bar: Callable[[str], AbstractContextManager[Progress | None]] | None = None) -> Models:
     """Models of a local evaluation: the named or active basis (built and activated when the wing has none)
     and one ROM per Mach with identity ``ident`` (trained when missing). A planform-only wing's basis: the
-    ``external`` shapes [N, k] (its modes on the standard mesh), found again when the same modes come back."""
+    ``external`` shapes [N, k] (its modes on the standard mesh), found again when the same modes come back.
+    ``bar(description)``: a progress bar (context manager yielding the callback) around each build or training."""
+    bar = bar or (lambda what: nullcontext(None))
     if basis_id is None and (store.wings.active_basis(wing_id) is None or wing.structure is None):
-        bid, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
-                                  log=log, external=external)
+        with bar("basis: modal analyses of the samples") as progress:
+            bid, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=modes,
+                                      mac_threshold=mac_threshold, log=log, external=external, progress=progress)
     else:
         bid = resolve_basis_id(store, wing_id, basis_id)
         basis = store.bases.load(bid)
-    roms = ensure_roms(store, wing_id, wing, bid, basis, machs, ident=ident, processes=processes, log=log)
+    with bar(f"ROMs at {len(machs)} Mach(s)") as progress:
+        roms = ensure_roms(store, wing_id, wing, bid, basis, machs, ident=ident, processes=processes, log=log,
+                           progress=progress)
     return Models(int(wing_id), wing, standard_mesh(wing.planform), int(bid), basis, roms)

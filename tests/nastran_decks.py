@@ -6,14 +6,21 @@ model's from a small numpy beam FE; their eigenvectors are written as SOL 103 OP
 
 from __future__ import annotations
 
+import os
 from struct import Struct, pack
 
 import numpy as np
+import pytest
 import scipy.linalg
 
 from romams_core.modes_io import _import_pynastran
 
-BDF, OP2 = _import_pynastran()
+try:
+    BDF, OP2 = _import_pynastran()
+except ImportError:  # the importing test module is skipped, except under CI (pyNastran is part of `make install`)
+    if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
+        raise
+    pytest.skip("pyNastran not installed (it is required under CI)", allow_module_level=True)
 
 from pyNastran.bdf.case_control_deck import CaseControlDeck  # noqa: E402
 from pyNastran.op2.tables.lama_eigenvalues.lama_objects import (  # noqa: E402

@@ -46,6 +46,17 @@ def test_flutter_json_contract_trains_once_and_reuses_the_store(data_dir):
     first, second = json.loads(again.stdout)["results"][0], out["results"][1]
     assert second["flutter_mode"] == first["flutter_mode"]
     assert second["q_flutter_pa"] == pytest.approx(first["q_flutter_pa"], rel=1e-9)
+    # the text form: a table row per Mach, 4 significant figures; plots on the EAS axis
+    text = _run("--wing", "cropped-delta", "--design", DESIGN, "--mach", "0.87", "--plot", str(data_dir / "eas"),
+                "--plot-axis", "eas", *QUICK)
+    assert text.exit_code == 0, text.output
+    assert "V_EAS (m/s)" in text.stdout and "q_f (Pa)" in text.stdout
+    (row,) = [ln.split() for ln in text.stdout.splitlines() if ln.split()[:1] == ["0.87"]]
+    assert row[1] == "constant-speed" and float(row[4]) == pytest.approx(first["v_eas_m_s"], rel=5e-4)
+    assert len(row[4].replace(".", "").lstrip("0")) == 4  # 4 significant figures
+    assert (data_dir / "eas" / "vg_M0.87.png").stat().st_size > 5000
+    bad = _run("--wing", "cropped-delta", "--baseline", "--plot-axis", "mach", *QUICK)
+    assert bad.exit_code == 2 and "--plot-axis" in bad.output
 
 
 def test_flutter_rom_pms_and_matched_point(data_dir):
@@ -107,6 +118,13 @@ def test_demo_quick_writes_summary_with_contract_keys(data_dir):
                 "rom_ams_4530_structures_min", "rom_pms_4530_structures_h"):
         assert key in s["timings"]
     assert (out / "envelope.png").stat().st_size > 10_000
+    # the text: fixed-width tables with units, one unwrapped row per Mach, wall and CPU labelled
+    text = res.output
+    assert "V_EAS ROM-AMS (m/s)" in text and "safe altitude (m)" in text and "CPU" in text and "wall" in text
+    rows = [ln.split() for ln in text.splitlines() if ln.split()[:1] == ["0.79"]]
+    assert len(rows) >= 4 and all(len(r) >= 3 for r in rows)  # ROMs, envelope, var1, var2
+    design_rows = [r for r in rows if len(r) == 6]  # Mach, V_AMS, V_PMS, error, f, safe altitude: 4 figures
+    assert len(design_rows) == 2 and all(r[3].startswith(("+", "-")) for r in design_rows)
 
 
 @pytest.mark.slow

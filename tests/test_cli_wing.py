@@ -3,25 +3,14 @@
 from __future__ import annotations
 
 import json
-import os
 
+import nastran_decks as nd  # tests/nastran_decks.py: skips this module without pyNastran (not under CI)
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from romams.cli import app
 from romams_core.mesh import Planform
-
-try:
-    from romams_core.modes_io import _import_pynastran
-
-    _import_pynastran()
-except ImportError:
-    if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
-        raise
-    pytest.skip("pyNastran not installed (it is required under CI)", allow_module_level=True)
-
-import nastran_decks as nd  # noqa: E402 (tests/nastran_decks.py: needs pyNastran)
 
 STICK = Planform(root_chord=0.3, tip_chord=0.3, semispan=0.5, sweep_le=0.0, n_chord=4, n_span=10)
 

@@ -135,6 +135,10 @@ def test_evaluate_baseline_vg_and_plots(client, wing) -> None:
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
     svg = client.plot(out["evaluation_id"], "svg", kind="envelope")
     assert b"<svg" in svg[:2000]
+    on_q = client.plot(out["evaluation_id"], "svg", axis="q", mach=MACHS[-1])  # another axis, another Mach
+    assert b"<svg" in on_q[:2000] and on_q != client.plot(out["evaluation_id"], "svg")
+    with pytest.raises(ValueError, match="axis"):
+        client.plot(out["evaluation_id"], "png", axis="mach")
 
 
 def _same_result(a: dict, b: dict) -> None:
@@ -185,12 +189,17 @@ def test_flutter_problem_is_one_batch_per_call_with_paper_penalty(client, wing) 
         env_ok = bool(r["envelope_ok"]) or min(r["envelope_margin_m"]) >= -0.01  # 1 cm tolerance
         feasible = env_ok and not r["sdoff"] and min(r["mac"]) >= 0.98
         assert obj[i] == pytest.approx(r["mass_kg"] + mu * (not feasible), rel=1e-12)
-    graded = FlutterProblem(client, wing, mu=mu, penalty="graded").evaluate(x)
+    graded_problem = FlutterProblem(client, wing, mu=mu, penalty="graded")
+    graded = graded_problem.evaluate(x)
     excess_km = np.array([sum(max(0.0, -m) for m in r["envelope_margin_m"]) / 1e3 for r in raw])
     expected = [r["mass_kg"] + (0.0 if f else mu * (1.0 + e * (not ok) + max(0.0, 0.98 - min(r["mac"])) / 0.02
                                                    + sum(p["sdoff"] for p in r["results"])))
                 for r, f, e, ok in zip(raw, graded.feasible, excess_km, graded.envelope_ok, strict=True)]
     assert graded.objective == pytest.approx(expected, rel=1e-12)
+    # the service's run applies the same graded penalty to what it stores (its dashboard's objective)
+    stored = {tuple(r["x"]): r["objective"] for r in client.run_evaluations(graded_problem.run_id)["evaluations"]}
+    assert client.get_run(graded_problem.run_id)["settings"]["penalty"] == "graded"
+    assert [stored[tuple(float(v) for v in xi)] for xi in x] == pytest.approx(graded.objective, rel=1e-9)
     cons = prob.constraints(x)  # same population: no new request
     assert prob.n_calls == 1
     assert cons["envelope_margin_m"].shape == (4, 2) and cons["feasible"].dtype == bool

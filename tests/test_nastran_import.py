@@ -7,29 +7,19 @@ numpy beam FE (tests/nastran_decks.py). Skipped only when pyNastran is missing a
 from __future__ import annotations
 
 import math
-import os
 import warnings
 
+import nastran_decks as nd  # tests/nastran_decks.py: skips this module without pyNastran (not under CI)
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
 from romams_core.mesh import Planform, standard_mesh
-from romams_core.modes_io import _import_pynastran, external_modal_result
-
-try:
-    _import_pynastran()
-except ImportError:
-    if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
-        raise
-    pytest.skip("pyNastran not installed (it is required under CI)", allow_module_level=True)
-
-import nastran_decks as nd  # noqa: E402 (tests/nastran_decks.py: needs pyNastran)
-
-from romams_core.nastran import NastranOptions, load_modes_nastran, read_bdf, scrub, wing_from_bdf  # noqa: E402
-from romams_core.structure.modal import modal_analysis  # noqa: E402
-from romams_core.structure.splines import beam_spline, surface_spline  # noqa: E402
-from romams_core.wing import ALUMINIUM, PlateStructure, WingDefinition  # noqa: E402
+from romams_core.modes_io import external_modal_result
+from romams_core.nastran import NastranOptions, load_modes_nastran, read_bdf, scrub, wing_from_bdf
+from romams_core.structure.modal import modal_analysis
+from romams_core.structure.splines import beam_spline, surface_spline
+from romams_core.wing import ALUMINIUM, PlateStructure, WingDefinition
 
 #: leading edge x = 0.4 y: corner coordinates exact in the CAERO1's 8-character fields
 PLATE = Planform(root_chord=0.4, tip_chord=0.2, semispan=0.5, sweep_le=math.atan(0.4), n_chord=6, n_span=8)

@@ -62,3 +62,12 @@ def test_modal_bad_input_exits_with_usage_error(args, text, tmp_path, monkeypatc
         get_settings.cache_clear()
     assert res.exit_code == 2
     assert text in res.output
+
+
+def test_modal_text_is_a_table_of_four_significant_figures():
+    res = runner.invoke(app, ["modal", "--wing", "cropped-delta", "--baseline", "--modes", "3"])
+    assert res.exit_code == 0, res.output
+    rows = [ln.split() for ln in res.stdout.splitlines() if ln.split()[:1] in (["1"], ["2"], ["3"])]
+    assert [r[0] for r in rows] == ["1", "2", "3"] and "f (Hz)" in res.stdout and "kg" in res.stdout
+    assert float(rows[0][1]) == pytest.approx(26.7, rel=0.02)  # the measured first bending mode
+    assert all(len(r[1].replace(".", "").lstrip("0")) == 4 for r in rows)

@@ -40,7 +40,8 @@ def test_train_command_default_dlm_rational_function_rom(data_dir):
     """The default solver is the doublet lattice: a GAF table fitted by an RFA (fit error <= 1 % per entry)."""
     plots = data_dir / "plots-dlm"
     runner = CliRunner()
-    res = runner.invoke(app, ["train", "--mach", "0.87", "--json", "--plot", str(plots)])
+    fast = ["--lattice-refine", "1"]  # one box per panel (the lattice is not what is tested here)
+    res = runner.invoke(app, ["train", "--mach", "0.87", *fast, "--json", "--plot", str(plots)])
     assert res.exit_code == 0, res.output
     rep = json.loads(res.stdout)
     assert rep["solver"] == "dlm" and rep["kind"] == "rfa" and rep["na"] == rep["nb"] == 0
@@ -52,13 +53,18 @@ def test_train_command_default_dlm_rational_function_rom(data_dir):
     with open(png, "rb") as fh:
         assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
     rom = open_store().roms.load(rep["rom_id"])
-    assert rom.ss.is_stable() and rom.ss.D2 is not None
-    assert json.loads(runner.invoke(app, ["train", "--mach", "0.87", "--json"]).stdout)["rom_id"] == rep["rom_id"]
+    assert rom.ss.is_stable() and rom.ss.D2 is not None and "refined 1x" in rom.solver_description
+    again = runner.invoke(app, ["train", "--mach", "0.87", *fast, "--json"])
+    assert json.loads(again.stdout)["rom_id"] == rep["rom_id"]
     # ARX settings do not apply to the dlm, RFA settings not to the uvlm
     bad = runner.invoke(app, ["train", "--mach", "0.87", "--n-steps", "1200"])
     assert bad.exit_code == 2 and "ARX" in bad.output
     bad = runner.invoke(app, ["train", "--mach", "0.87", "--solver", "uvlm", "--n-lags", "2"])
     assert bad.exit_code == 2 and "--n-lags" in bad.output
+    bad = runner.invoke(app, ["train", "--mach", "0.87", "--solver", "uvlm", "--lattice-refine", "1"])
+    assert bad.exit_code == 2 and "--lattice-refine" in bad.output
+    bad = runner.invoke(app, ["train", "--mach", "0.87", "--lattice-refine", "5"])
+    assert bad.exit_code == 2 and "--lattice-refine" in bad.output
     bad = runner.invoke(app, ["train", "--mach", "0.87", "--solver", "vlm"])
     assert bad.exit_code == 2 and "unknown solver" in bad.output
 

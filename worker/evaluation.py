@@ -159,6 +159,7 @@ def flutter_chunk(job_id: str) -> None:
         result = {"index": p["index"], "results": out}
         if p.get("run_id") is None:
             return result
+        fill_best(job, designs, out, full)
 
         def save(uow: UnitOfWork) -> dict[str, Any]:
             save_run_chunk(uow, job, keys, out, full)
@@ -172,6 +173,21 @@ def flutter_chunk(job_id: str) -> None:
         assemble_batch(job["parent_id"])
 
 
+def fill_best(job: dict[str, Any], designs: list[Any], summaries: list[Any], full: list[Any]) -> None:
+    """The full result (V-g data) of the chunk's best feasible design when it beats its run's best so far but was
+    answered from the result cache (which keeps summaries only): evaluated again, into ``full``."""
+    p = job["params"]
+    rows = [compact_row(d, s, p["run_settings"]) for d, s in zip(designs, summaries, strict=True)]
+    cands = [i for i, r in enumerate(rows) if r["feasible"]]
+    if not cands:
+        return
+    i = min(cands, key=lambda k: rows[k]["objective"])
+    best = store().runs.best_objective(int(p["run_id"]))
+    if full[i] is None and (best is None or rows[i]["objective"] < best):
+        models = models_for(job["wing_id"], p["basis_id"], p["rom_ids"])
+        ((_, full[i]),) = evaluate_designs(models, [designs[i]], condition=condition_of(p), cache=OBJECTS.get_or_load)
+
+
 def save_run_chunk(uow: UnitOfWork, job: dict[str, Any], keys: list[str], summaries: list[Any],
                    full: list[Any]) -> None:
     """Store a chunk's designs as compact evaluations of its run (one INSERT); V-g data (an evaluation row) only
@@ -181,10 +197,10 @@ def save_run_chunk(uow: UnitOfWork, job: dict[str, Any], keys: list[str], summar
     rows = [compact_row(d, s, p["run_settings"], job["parent_id"]) for d, s in zip(designs, summaries, strict=True)]
     keep = {i for i, r in enumerate(full) if r is not None} if p.get("keep_vg") else set()
     best = uow.runs.best_objective(run_id)
-    cands = [i for i, r in enumerate(rows) if r["feasible"] and full[i] is not None]
-    if cands:
+    cands = [i for i, r in enumerate(rows) if r["feasible"]]
+    if cands:  # the chunk's best (its full result filled in by fill_best when it came from the result cache)
         i = min(cands, key=lambda k: rows[k]["objective"])
-        if best is None or rows[i]["objective"] < best:
+        if full[i] is not None and (best is None or rows[i]["objective"] < best):
             keep.add(i)
     for i in sorted(keep):
         rows[i]["evaluation_id"] = uow.evaluations.save(
@@ -218,4 +234,4 @@ def batch_finalize(job_id: str) -> None:
 
 
 __all__ = ["JobFailed", "Outcome", "assemble_batch", "evaluate", "evaluate_pms", "flutter_chunk", "flutter_job",
-           "flutter_pms_job", "save_run_chunk"]
+           "flutter_pms_job", "fill_best", "save_run_chunk"]

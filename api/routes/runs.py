@@ -36,7 +36,7 @@ def summary_of(svc: Service, run: dict[str, Any]) -> dict[str, Any]:
 def create_run(body: RunCreate, response: Response, svc: Service = Depends(service)) -> dict[str, Any]:
     """Create a run; tag batches with its id (``run_id``) to store their designs as its evaluations."""
     wid = None if body.wing is None else wing_or_404(svc, str(body.wing))[0]
-    settings = run_settings(body.model_dump(include={"mu_kg", "mac_threshold", "envelope_tol_m"}))
+    settings = run_settings(body.model_dump(include={"mu_kg", "mac_threshold", "envelope_tol_m", "penalty"}))
     run_id = svc.store.runs.create(body.name, settings, wing_id=wid)
     response.headers["Location"] = f"/api/v1/runs/{run_id}"
     return summary_of(svc, run_or_404(svc, run_id))

@@ -43,6 +43,18 @@ def _design_json(design: DesignLike | None) -> Any:
     return arr.tolist()
 
 
+def _model_choice(machs: Sequence[float] | None, basis_id: int | None, solver: str | None) -> dict[str, Any]:
+    """The optional request fields that pick the models of an evaluation: Machs, basis, solver (only those given)."""
+    body: dict[str, Any] = {}
+    if machs is not None:
+        body["machs"] = [float(m) for m in machs]
+    if basis_id is not None:
+        body["basis_id"] = int(basis_id)
+    if solver is not None:
+        body["solver"] = str(solver)
+    return body
+
+
 def _designs_json(designs: Iterable[DesignLike] | np.ndarray) -> list[Any]:
     """JSON form of several designs ([n, d] array, list of vectors or of dicts)."""
     if isinstance(designs, np.ndarray):
@@ -319,13 +331,8 @@ class RomamsClient:
         A 202 answer (the service was busy) is waited for transparently. ``solver`` picks the ROMs of one
         aerodynamic solver (default: the service's choice, the dlm ROM where one is trained).
         """
-        body: dict[str, Any] = {"design": _design_json(design), "method": method, "store": bool(store)}
-        if machs is not None:
-            body["machs"] = [float(m) for m in machs]
-        if basis_id is not None:
-            body["basis_id"] = int(basis_id)
-        if solver is not None:
-            body["solver"] = str(solver)
+        body = {"design": _design_json(design), "method": method, "store": bool(store),
+                **_model_choice(machs, basis_id, solver)}
         r = self.request("POST", f"/wings/{self._ref(wing)}/flutter", json=body)
         out = r.json()
         if r.status_code == 202:
@@ -349,13 +356,7 @@ class RomamsClient:
             raise ValueError(f"max_per_request: must be >= 1, got {max_per_request}")
         results: list[dict[str, Any]] = []
         for start in range(0, len(payload), max_per_request):
-            body: dict[str, Any] = {"designs": payload[start:start + max_per_request]}
-            if machs is not None:
-                body["machs"] = [float(m) for m in machs]
-            if basis_id is not None:
-                body["basis_id"] = int(basis_id)
-            if solver is not None:
-                body["solver"] = str(solver)
+            body = {"designs": payload[start:start + max_per_request], **_model_choice(machs, basis_id, solver)}
             if run_id is not None:
                 body["run_id"] = int(run_id)
                 body["keep_vg"] = bool(keep_vg)
@@ -369,10 +370,11 @@ class RomamsClient:
         return results
 
     # ---- runs -------------------------------------------------------------------------------------
-    def create_run(self, name: str, wing: WingRef | None = None, **settings: float) -> dict[str, Any]:
+    def create_run(self, name: str, wing: WingRef | None = None, **settings: float | str) -> dict[str, Any]:
         """Create a run (study) grouping the evaluations of one campaign; ``settings``: mu_kg, mac_threshold,
-        envelope_tol_m (its feasibility rule and penalty). Returns the run with its ``id``."""
-        body: dict[str, Any] = {"name": str(name), **{k: float(v) for k, v in settings.items()}}
+        envelope_tol_m (its feasibility rule) and penalty ("binary" or "graded"). Returns the run with its ``id``."""
+        body: dict[str, Any] = {"name": str(name), **{k: v if isinstance(v, str) else float(v)
+                                                       for k, v in settings.items()}}
         if wing is not None:
             body["wing"] = wing
         return self._json("POST", "/runs", json=body)
@@ -390,11 +392,20 @@ class RomamsClient:
         """V-g / V-omega data of a stored evaluation: per Mach, speeds (m/s), damping g and omega (rad/s)."""
         return self._json("GET", f"/evaluations/{int(evaluation_id)}/vg")
 
-    def plot(self, evaluation_id: int, fmt: str = "png", kind: str = "vg") -> bytes:
-        """PNG/SVG bytes of a stored evaluation's V-g plot (kind="vg") or envelope plot (kind="envelope")."""
+    def plot(self, evaluation_id: int, fmt: str = "png", kind: str = "vg", *, axis: str = "tas",
+             mach: float | None = None) -> bytes:
+        """PNG/SVG bytes of a stored evaluation's V-g plot (kind="vg") or envelope plot (kind="envelope").
+
+        ``axis``: speed axis of the V-g plot, "tas" (true airspeed), "eas" (equivalent airspeed) or "q" (dynamic
+        pressure); ``mach``: which Mach's V-g plot (default: the first)."""
         if fmt not in ("png", "svg"):
             raise ValueError(f"fmt: must be 'png' or 'svg', got {fmt!r}")
-        return self.request("GET", f"/evaluations/{int(evaluation_id)}/plot.{fmt}", params={"kind": kind}).content
+        if axis not in ("tas", "eas", "q"):
+            raise ValueError(f"axis: must be 'tas', 'eas' or 'q', got {axis!r}")
+        params: dict[str, Any] = {"kind": kind, "axis": axis}
+        if mach is not None:
+            params["mach"] = float(mach)
+        return self.request("GET", f"/evaluations/{int(evaluation_id)}/plot.{fmt}", params=params).content
 
     def get_evaluation(self, evaluation_id: int) -> dict[str, Any]:
         """A stored evaluation (request and summary)."""

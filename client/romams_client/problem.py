@@ -122,7 +122,7 @@ class FlutterProblem:
         name = run if isinstance(run, str) else f"{info.get('name', self.wing_id)}: mass, flutter envelope"
         try:
             created = self.client.create_run(name, self.wing_id, mu_kg=self.mu, mac_threshold=self.mac_threshold,
-                                             envelope_tol_m=self.envelope_tol_m)
+                                             envelope_tol_m=self.envelope_tol_m, penalty=self.penalty)
         except RomamsError as exc:
             if exc.status in (404, 405):
                 return None

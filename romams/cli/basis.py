@@ -11,6 +11,7 @@ import numpy as np
 import typer
 
 from romams.cli.app import WING_HELP, app
+from romams.cli.text import console, progress_bar, sig
 from romams.services.evaluation import DEFAULT_MAC_THRESHOLD
 from romams.services.models import activate_first_basis
 from romams_core.basis import Basis, build_basis_for_wing, mac_by_basis_size, project, random_designs, snapshot
@@ -84,8 +85,9 @@ def basis_command(
     w = _resolve_wing(wing, store)
     t0 = time.perf_counter()
     try:
-        basis = build_basis_for_wing(w, samples=samples, modes=modes, mac_threshold=mac, max_basis=max_basis,
-                                     seed=seed)
+        with progress_bar(console(), f"modal analyses of {samples} samples") as bar:
+            basis = build_basis_for_wing(w, samples=samples, modes=modes, mac_threshold=mac, max_basis=max_basis,
+                                         seed=seed, progress=bar)
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from None
     t_build = time.perf_counter() - t0
@@ -105,7 +107,10 @@ def basis_command(
     hold_shapes: list[np.ndarray] = []
     if holdout:
         designs = random_designs(w, holdout, seed=seed + 1000)
-        hold_shapes = [snapshot(w, x, modes) for x in designs]
+        with progress_bar(console(), f"modal analyses of {holdout} hold-out designs") as bar:
+            for i, x in enumerate(designs):
+                hold_shapes.append(snapshot(w, x, modes))
+                bar((i + 1) / len(designs), "")
         hold = np.vstack([project(basis.shapes, s, mac).mac for s in hold_shapes])  # [holdout, modes]
         by_m = np.stack([mac_by_basis_size(basis.candidates, s).min(axis=1) for s in hold_shapes]).min(axis=0)
         report.update(
@@ -138,7 +143,7 @@ def basis_command(
         typer.echo(json.dumps(report))
         return
     typer.echo(basis.message)
-    typer.echo(f"samples: {samples} x {modes} modes, worst sample MAC {basis.min_mac:.5f} ({t_build:.1f} s)")
+    typer.echo(f"samples: {samples} x {modes} modes, worst sample MAC {basis.min_mac:.5f} ({sig(t_build)} s wall)")
     if holdout:
         per_mode = ", ".join(f"{x:.5f}" for x in report["holdout_min_mac_by_mode"])
         typer.echo(f"hold-out: {holdout} designs, worst MAC per mode {per_mode}")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import resource
 import time
 from pathlib import Path
 from typing import Any
@@ -12,6 +13,7 @@ from typing import Any
 import numpy as np
 import typer
 
+from romams.cli import text
 from romams.cli.app import app
 from romams.pipeline import PAPER_MACHS, ensure_basis, ensure_roms, resolve_wing, rom_identity, train_shape_sets
 from romams.services.evaluation import Models, evaluate, pms_summary, result_row
@@ -28,6 +30,8 @@ DEMO_DESIGNS = {
     "var2": {"x1": 0.15, "x2": 0.15, "x3": 0.60, "x4": 0.0, "x5": 2.0, "x6": 2.0, "x7": 1.0},
 }
 
+#: Measured natural frequencies of the bare cropped delta plate (Hz; reference data, first three modes).
+MEASURED_HZ = (26.7, 88.2, 131.8)
 #: Number of structures analysed in the paper's optimization (for the timing extrapolation).
 PAPER_STRUCTURES = 4530
 #: TSD settings of ``romams demo --quick --solver tsd`` (CI): half-resolution grid, 102 t* records, ARX orders 6
@@ -38,36 +42,65 @@ DLM_QUICK_OPTIONS = {"lattice_refine": 1}
 
 
 class _Console:
-    """Readable progress on stderr (stdout stays free)."""
+    """Readable progress on stderr (stdout stays free): step rules, log lines with the elapsed wall time, tables
+    and progress bars (``romams.cli.text``)."""
 
     def __init__(self) -> None:
-        from rich.console import Console
-
-        self.c = Console(stderr=True, highlight=False)
+        self.c = text.console(stderr=True)
         self.t0 = time.perf_counter()
 
-    def step(self, text: str) -> None:
+    def step(self, headline: str) -> None:
         """A numbered step headline."""
-        self.c.rule(f"[bold]{text}")
+        self.c.rule(f"[bold]{headline}")
 
-    def __call__(self, text: str) -> None:
-        """One log line with the elapsed time."""
-        self.c.print(f"[dim]{time.perf_counter() - self.t0:6.1f} s[/dim]  {text}")
+    def __call__(self, line: str) -> None:
+        """One log line with the elapsed wall time."""
+        self.c.print(f"[dim]{time.perf_counter() - self.t0:6.1f} s[/dim]  {line}")
+
+    def table(self, title: str | None, columns: list[str], rows: list[list[Any]]) -> None:
+        """A fixed-width table (4 significant figures, units in the headers)."""
+        self.c.print(text.table(title, columns, rows))
+
+    def bar(self, description: str) -> Any:
+        """A progress bar for a wait (context manager yielding the progress callback)."""
+        return text.progress_bar(self.c, description)
 
 
-def _fmt(x: float | None, spec: str) -> str:
-    """A number formatted with ``spec``, or "none" (no flutter found)."""
-    return "none" if x is None else format(x, spec)
+def _clocks() -> tuple[float, float]:
+    """(wall, CPU) seconds now; CPU counts this process and its finished children (training processes)."""
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.perf_counter(), me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def _median_ms(fn: Any, repeats: int) -> float:
-    """Median wall time of ``fn()`` in milliseconds."""
-    times = []
+def _since(start: tuple[float, float]) -> tuple[float, float]:
+    """(wall, CPU) seconds since ``start`` (``_clocks()``)."""
+    wall, cpu = _clocks()
+    return wall - start[0], cpu - start[1]
+
+
+def _median_ms(fn: Any, repeats: int) -> tuple[float, float]:
+    """Median (wall, CPU) time of ``fn()`` in milliseconds, in this process."""
+    walls, cpus = [], []
     for _ in range(repeats):
-        t = time.perf_counter()
+        w, c = time.perf_counter(), time.process_time()
         fn()
-        times.append(time.perf_counter() - t)
-    return 1e3 * float(np.median(times))
+        walls.append(time.perf_counter() - w)
+        cpus.append(time.process_time() - c)
+    return 1e3 * float(np.median(walls)), 1e3 * float(np.median(cpus))
+
+
+def _design_row(models: Models, ams: Any, ref: dict[str, Any]) -> dict[str, Any]:
+    """One Mach of a demo design: the ROM-AMS result row with the ROM-PMS reference and their differences; the
+    accuracy is in flutter speed EAS (sqrt(q_f)): on a constant-speed sweep the true speed is M a_ref."""
+    row = result_row(ams, None, *models.roms[float(ams.mach)])
+    row["v_eas_pms_m_s"] = ref["v_eas_m_s"]
+    row["v_flutter_pms_m_s"] = ref["v_flutter_m_s"]
+    row["omega_flutter_pms_rad_s"] = ref["omega_flutter_rad_s"]
+    ok = row["v_eas_m_s"] is not None and row["v_eas_pms_m_s"] is not None
+    row["error_pct"] = 100.0 * (row["v_eas_m_s"] / row["v_eas_pms_m_s"] - 1.0) if ok else None
+    row["omega_error_pct"] = (100.0 * (row["omega_flutter_rad_s"] / row["omega_flutter_pms_rad_s"] - 1.0)
+                              if ok else None)
+    return row
 
 
 def _envelope_json(env: Any) -> list[dict[str, Any]]:
@@ -140,66 +173,61 @@ def demo_command(
     log.step("1. Cropped delta wing: bare baseline plate")
     wing_id, wing = resolve_wing(store, "cropped-delta")
     mesh = standard_mesh(wing.planform)
-    t = time.perf_counter()
     base = modal_analysis(wing, None, 4, mesh)
-    log(f"baseline: mass {base.mass_kg:.4f} kg, frequencies " + ", ".join(f"{f:.2f}" for f in base.frequencies_hz)
-        + " Hz (measured 26.7, 88.2, 131.8)")
+    log(f"baseline plate: mass {text.sig(base.mass_kg)} kg")
+    log.table(None, ["mode", "f (Hz)", "measured (Hz)"],
+              [[i + 1, float(f), MEASURED_HZ[i] if i < len(MEASURED_HZ) else None]
+               for i, f in enumerate(base.frequencies_hz)])
 
     log.step(f"2. PCA basis: {samples} LHS samples x 4 modes")
-    t = time.perf_counter()
-    basis_id, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=4, mac_threshold=0.9999,
-                                   max_basis=8, seed=0, log=log)
-    timings["pca_basis_s"] = time.perf_counter() - t
+    start = _clocks()
+    with log.bar("modal analyses of the samples") as bar:
+        basis_id, basis = ensure_basis(store, wing_id, wing, samples=samples, modes=4, mac_threshold=0.9999,
+                                       max_basis=8, seed=0, log=log, progress=bar)
+    timings["pca_basis_s"] = _since(start)[0]
     mac_table = np.asarray(basis.mac_table).reshape(-1, 4) if np.size(basis.mac_table) % 4 == 0 else None
-    log(f"{basis.n_basis} basis shapes, worst snapshot MAC {basis.min_mac:.5f}")
 
     kind = "rational-function (RFA)" if is_frequency_solver(solver) else "ARX"
     log.step(f"3. {solver.upper()} {kind} ROM per Mach ({len(machs)} trainings, {min(procs, len(machs))} in parallel)")
-    t = time.perf_counter()
-    roms = ensure_roms(store, wing_id, wing, basis_id, basis, machs, ident=ident, processes=procs, log=log)
-    timings["training_wall_s"] = time.perf_counter() - t
+    start = _clocks()
+    with log.bar(f"training {len(machs)} {solver} ROM(s)") as bar:
+        roms = ensure_roms(store, wing_id, wing, basis_id, basis, machs, ident=ident, processes=procs,
+                           log=lambda line: None, progress=bar)
+    timings["training_wall_s"], timings["training_cpu_s"] = _since(start)
     timings["training_per_mach_s"] = float(np.mean([r.train_seconds for _, r in roms.values()]))
     models = Models(wing_id, wing, mesh, basis_id, basis, roms)
-    for m, (rid, r) in roms.items():
-        log(f"M = {m:.2f}: rom {rid}, {quality_line(r)}")
+    log.table(None, ["Mach", "ROM", "quality", "states", "training (s, wall)"],
+              [[f"{m:.2f}", rid, quality_line(r).split(" (")[0], int(r.ss.A.shape[0]), float(r.train_seconds)]
+               for m, (rid, r) in roms.items()])
+    for m, (_, r) in roms.items():
         if getattr(r, "mean_flow", None):
             mf = r.mean_flow
             log(f"M = {m:.2f}: TSD mean flow {'converged' if mf['steady_converged'] else 'NOT converged'} in "
-                f"{mf['steady_steps']} steps, min Cp {np.nanmin(mf['cp_upper']):.3f} (sonic {mf['cp_star']:.3f})")
+                f"{mf['steady_steps']} steps, min Cp {text.sig(float(np.nanmin(mf['cp_upper'])))} "
+                f"(sonic {text.sig(mf['cp_star'])})")
 
     baseline_eval = evaluate(models, base, condition)
-    log("benchmark envelope (baseline): " + ", ".join(
-        f"M {m:.2f}: {h:.0f} m" for m, h in zip(baseline_eval.envelope.mach, baseline_eval.envelope.safe_altitude_m,
-                                                strict=True)))
+    env = baseline_eval.envelope
+    log.table("benchmark envelope (baseline plate)", ["Mach", "flutter q (Pa)", "safe altitude (m)"],
+              [[f"{m:.2f}", float(q), float(h)] for m, q, h in zip(env.mach, env.q_flutter_pa, env.safe_altitude_m,
+                                                                   strict=True)])
 
     log.step("4. Two contrasting designs: ROM-AMS vs ROM-PMS")
     design_rows = []
     design_evals = {}
     modals = {name: modal_analysis(wing, design, 4, mesh) for name, design in DEMO_DESIGNS.items()}
-    t = time.perf_counter()
-    pms_sets = dict(zip(modals, train_shape_sets(mesh, [m.shapes for m in modals.values()], machs, ident, procs),
-                        strict=True))
-    timings["rom_pms_training_s"] = time.perf_counter() - t  # both designs, all Machs
+    start = _clocks()
+    with log.bar(f"ROM-PMS: {len(modals)} x {len(machs)} trainings on the designs' own modes") as bar:
+        pms_sets = dict(zip(modals, train_shape_sets(mesh, [m.shapes for m in modals.values()], machs, ident,
+                                                     procs, progress=bar), strict=True))
+    timings["rom_pms_training_s"], timings["rom_pms_training_cpu_s"] = _since(start)  # both designs, all Machs
     for name, design in DEMO_DESIGNS.items():
         modal = modals[name]
         ev = evaluate(models, modal, condition, benchmark=baseline_eval.envelope)
         design_evals[name] = ev
         own = {m: (models.roms[m][0], r) for m, r in zip(machs, pms_sets[name], strict=True)}  # the settings' ids
         pms, _ = pms_summary(models, modal, own, condition)
-        rows = []
-        for ams, ref in zip(ev.flutter, pms["results"], strict=True):
-            # accuracy in flutter speed: EAS (sqrt(q_f)); on a constant-speed sweep the true speed is M a_ref
-            row = result_row(ams, None, *models.roms[float(ams.mach)])
-            row["v_eas_pms_m_s"] = ref["v_eas_m_s"]
-            row["v_flutter_pms_m_s"] = ref["v_flutter_m_s"]
-            row["omega_flutter_pms_rad_s"] = ref["omega_flutter_rad_s"]
-            ok = row["v_eas_m_s"] is not None and row["v_eas_pms_m_s"] is not None
-            row["error_pct"] = 100.0 * (row["v_eas_m_s"] / row["v_eas_pms_m_s"] - 1.0) if ok else None
-            row["omega_error_pct"] = (100.0 * (row["omega_flutter_rad_s"] / row["omega_flutter_pms_rad_s"] - 1.0)
-                                      if ok else None)
-            rows.append(row)
-            log(f"{name} M {row['mach']:.2f}: ROM-AMS V_EAS {_fmt(row['v_eas_m_s'], '.2f')} m/s, ROM-PMS "
-                f"{_fmt(row['v_eas_pms_m_s'], '.2f')} m/s, error {_fmt(row['error_pct'], '+.3f')} %")
+        rows = [_design_row(models, ams, ref) for ams, ref in zip(ev.flutter, pms["results"], strict=True)]
         design_rows.append({
             "name": name, "design": design, "mass_kg": float(modal.mass_kg),
             "frequencies_hz": [float(f) for f in modal.frequencies_hz], "mac": [float(x) for x in ev.mac],
@@ -207,20 +235,30 @@ def demo_command(
             "envelope_ok": None if ev.comparison is None else bool(ev.comparison.envelope_ok),
             "constraints_ok": bool(ev.constraints_ok), "message": ev.message,
         })
-        log(f"{name}: mass {modal.mass_kg:.4f} kg, MAC " + ", ".join(f"{x:.4f}" for x in ev.mac)
-            + f"; {ev.message}")
+        log.table(f"{name}: mass {text.sig(modal.mass_kg)} kg, MAC " + ", ".join(text.sig(x, 6) for x in ev.mac),
+                  ["Mach", "V_EAS ROM-AMS (m/s)", "V_EAS ROM-PMS (m/s)", "error (%)", "f_flutter (Hz)",
+                   "safe altitude (m)"],
+                  [[f"{r['mach']:.2f}", r["v_eas_m_s"], r["v_eas_pms_m_s"], text.sig(r["error_pct"], signed=True),
+                    None if r["omega_flutter_rad_s"] is None else r["omega_flutter_rad_s"] / (2 * math.pi),
+                    h] for r, h in zip(rows, ev.envelope.safe_altitude_m, strict=True)])
+        log(f"{name}: {ev.message}")
 
-    log.step("5. Timing (per structure, one core)")
+    log.step("5. Timing per structure (one process)")
     design = DEMO_DESIGNS["var1"]
-    modal_ms = _median_ms(lambda: modal_analysis(wing, design, 4, mesh), 7)
-    modal = modal_analysis(wing, design, 4, mesh)
-    flutter_ms = _median_ms(lambda: evaluate(models, modal, condition, benchmark=baseline_eval.envelope), 5)
-    proj_ms = _median_ms(lambda: project(basis.shapes, modal.shapes), 20)
+    with log.bar("timing the per-structure steps") as bar:
+        modal_ms, modal_cpu_ms = _median_ms(lambda: modal_analysis(wing, design, 4, mesh), 7)
+        bar(0.3, "flutter")
+        modal = modal_analysis(wing, design, 4, mesh)
+        flutter_ms, flutter_cpu_ms = _median_ms(
+            lambda: evaluate(models, modal, condition, benchmark=baseline_eval.envelope), 5)
+        bar(0.9, "projection")
+        proj_ms, _ = _median_ms(lambda: project(basis.shapes, modal.shapes), 20)
     per_structure_s = (modal_ms + flutter_ms) / 1e3
     # measured ROM-PMS training per design (a frequency-domain solver reuses its factorized AICs after the first)
     pms_per_structure_s = timings["rom_pms_training_s"] / len(DEMO_DESIGNS) + per_structure_s
     timings.update({
-        "modal_analysis_ms": modal_ms, "projection_ms": proj_ms, "flutter_5_machs_ms": flutter_ms,
+        "modal_analysis_ms": modal_ms, "modal_analysis_cpu_ms": modal_cpu_ms, "projection_ms": proj_ms,
+        "flutter_5_machs_ms": flutter_ms, "flutter_5_machs_cpu_ms": flutter_cpu_ms,
         "structure_eval_ms": modal_ms + flutter_ms,
         "rom_ams_4530_structures_min": (timings["pca_basis_s"] + timings["training_wall_s"]
                                         + PAPER_STRUCTURES * per_structure_s) / 60.0,
@@ -229,8 +267,19 @@ def demo_command(
         "rom_pms_over_rom_ams_per_structure": pms_per_structure_s / per_structure_s,
         "processes": procs,
     })
-    for k, v in timings.items():
-        log(f"{k}: {np.round(v, 3).tolist() if isinstance(v, list) else round(float(v), 3)}")
+    t = timings
+    log.table(None, ["step", "wall", "CPU", "unit", "note"], [
+        ["PCA basis", t["pca_basis_s"], None, "s", f"{samples} samples"],
+        ["ROM training, all Machs", t["training_wall_s"], t["training_cpu_s"], "s", f"{procs} processes"],
+        ["ROM training, one Mach", t["training_per_mach_s"], None, "s", "in its process"],
+        ["modal analysis", modal_ms, modal_cpu_ms, "ms", "median of 7"],
+        ["projection on the basis", proj_ms, None, "ms", "median of 20"],
+        [f"flutter, {len(machs)} Mach(s)", flutter_ms, flutter_cpu_ms, "ms", "median of 5"],
+        ["ROM-AMS, 4530 structures", t["rom_ams_4530_structures_min"], None, "min", "basis + training + evals"],
+        ["ROM-PMS, per structure", pms_per_structure_s, None, "s", "own-mode training + eval"],
+        ["ROM-PMS, 4530 structures", t["rom_pms_4530_structures_h"], None, "h", "extrapolated"],
+        ["ROM-PMS / ROM-AMS", t["rom_pms_over_rom_ams_per_structure"], None, "-", "per structure"],
+    ])
 
     summary = {
         "wing": wing.name,
@@ -253,9 +302,12 @@ def demo_command(
         "designs": design_rows,
         "timings": timings,
     }
-    summary["plots"] = _plots(out, baseline_eval, design_evals, basis, mesh, roms)
+    with log.bar("writing the plots") as bar:
+        summary["plots"] = _plots(out, baseline_eval, design_evals, basis, mesh, roms)
+        bar(1.0, "done")
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    log(f"wrote {out / 'summary.json'} and {len(summary['plots'])} plots in {time.perf_counter() - log.t0:.1f} s")
+    log(f"wrote {out / 'summary.json'} and {len(summary['plots'])} plots in {time.perf_counter() - log.t0:.1f} s "
+        "(wall)")
 
 
 __all__ = ["demo_command", "DEMO_DESIGNS"]

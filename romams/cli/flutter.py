@@ -109,9 +109,12 @@ def flutter_command(
     na: int = typer.Option(8, "--na", min=1, max=40, help="ARX orders (time-domain solvers)"),
     nb: int = typer.Option(8, "--nb", min=1, max=40),
     plot: Path | None = typer.Option(None, "--plot", help="write V-g / V-omega plots (PNG and SVG) here"),
+    plot_axis: str = typer.Option("tas", "--plot-axis", help="speed axis of the V-g plots: tas (true airspeed), "
+                                  "eas (equivalent airspeed) or q (dynamic pressure)"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
 ) -> None:
     """Flutter analysis of one structure with the wing's ROM-AMS models (building / training what is missing)."""
+    from romams.cli.text import console, progress_bar
     from romams.persistence import open_store
     from romams.pipeline import cli_models, resolve_wing, rom_identity, train_shapes
     from romams.services.evaluation import evaluate_structure_summary, pms_summary, structure_modal
@@ -123,7 +126,10 @@ def flutter_command(
             raise typer.BadParameter(f"{m!r}: must be in [0, 1) for the built-in subsonic solvers", param_hint="--mach")
     if not 0.0 < mac < 1.0:
         raise typer.BadParameter("must be in (0, 1)", param_hint="--mac")
+    if plot_axis not in ("tas", "eas", "q"):
+        raise typer.BadParameter(f"{plot_axis!r}: must be tas, eas or q", param_hint="--plot-axis")
     condition = flight_condition(density, altitude, matched, sweep, v_max)
+    err = console(stderr=True)
     if design is not None and baseline:
         raise typer.BadParameter("give either --baseline or --design, not both", param_hint="--design")
     if design is None and modes_file is None and not baseline:
@@ -155,10 +161,11 @@ def flutter_command(
     ident = rom_identity(solver, na, nb, wing=w)
     try:
         models = cli_models(store, wing_id, w, machs, ident, basis_id=basis_id, samples=samples, modes=n_modes,
-                            mac_threshold=mac, external=external)
+                            mac_threshold=mac, external=external, bar=lambda what: progress_bar(err, what))
         if method == "rom-pms":
             modal = structure_modal(models, values, modes)
-            trained = train_shapes(models.mesh, modal.shapes, machs, ident)
+            with progress_bar(err, f"ROM-PMS: training {len(machs)} ROM(s) on the structure's own modes") as bar:
+                trained = train_shapes(models.mesh, modal.shapes, machs, ident, progress=bar)
             own = {m: (models.roms[m][0], r) for m, r in zip(machs, trained, strict=True)}  # ids: the settings' ROMs
             summary, result = pms_summary(models, modal, own, condition, external=modes is not None)
         else:
@@ -172,7 +179,7 @@ def flutter_command(
 
         raise bad_input(exc, {**NASTRAN_HINTS, "design": "--design", "modes": "--modes"}, "--wing") from None
     if plot is not None:
-        summary["plots"] = write_flutter_plots(plot, result.flutter)
+        summary["plots"] = write_flutter_plots(plot, result.flutter, plot_axis)
     if as_json:
         typer.echo(json.dumps(summary))
         return
@@ -180,24 +187,29 @@ def flutter_command(
 
 
 def echo_summary(out: dict[str, Any]) -> None:
-    """Human-readable lines of an evaluation summary."""
-    freqs = ", ".join(f"{f:.2f}" for f in out["frequencies_hz"])
-    typer.echo(f"{out['wing']}: mass {out['mass_kg']} kg, frequencies {freqs} Hz, MAC "
-               + ", ".join(f"{x:.4f}" for x in out["mac"]) + f" (basis {out['basis_id']}, {out['n_basis']} shapes)")
+    """An evaluation summary as text on stdout: the structure, then one table row per Mach (4 significant
+    figures, units in the headers); a Mach without flutter in the sweep range gets its message below."""
+    from romams.cli.text import console, sig, table
+
+    con = console(stderr=False)
+    freqs = ", ".join(sig(f) for f in out["frequencies_hz"])
+    con.print(f"{out['wing']}: mass {sig(out['mass_kg'])} kg, frequencies {freqs} Hz, MAC "
+              + ", ".join(sig(x, 6) for x in out["mac"]) + f" (basis {out['basis_id']}, {out['n_basis']} shapes)")
     if out.get("warning"):
-        typer.echo("WARNING: " + out["warning"])
+        con.print("WARNING: " + out["warning"])
+    rows = [[f"{r['mach']:.2f}", r["sweep"], r["rho_ref_kg_m3"], r["v_true_m_s"], r["v_eas_m_s"],
+             r["q_flutter_pa"], None if r["omega_flutter_rad_s"] is None else r["omega_flutter_rad_s"] / (2 * math.pi),
+             r["flutter_mode"], ("yes" if r["sdoff"] else "no") if r["flutter_found"] else "-",
+             r.get("safe_altitude_m")] for r in out["results"]]
+    con.print(table(None, ["Mach", "sweep", "rho_ref (kg/m^3)", "V_true (m/s)", "V_EAS (m/s)", "q_f (Pa)",
+                           "f_f (Hz)", "mode", "SDOFF", "safe altitude (m)"], rows))
     for r in out["results"]:
-        head = f"  M = {r['mach']:.2f} ({r['sweep']}, rho_ref {r['rho_ref_kg_m3']:.4f} kg/m^3)"
-        if r["flutter_found"]:
-            typer.echo(f"{head}: V_true = {r['v_true_m_s']:.2f} m/s, V_EAS = {r['v_eas_m_s']:.2f} m/s, "
-                       f"q_f = {r['q_flutter_pa']:.0f} Pa, omega_f = {r['omega_flutter_rad_s']:.1f} rad/s, "
-                       f"mode {r['flutter_mode']}{', SDOFF' if r['sdoff'] else ''}")
-        else:
-            typer.echo(f"{head}: {r['message']}")
+        if not r["flutter_found"]:
+            con.print(f"M = {r['mach']:.2f}: {r['message']}")
 
 
-def write_flutter_plots(directory: Path, results: list[Any]) -> list[str]:
-    """V-g / V-omega figures (PNG and SVG) of each Mach's result; returns the paths."""
+def write_flutter_plots(directory: Path, results: list[Any], axis: str = "tas") -> list[str]:
+    """V-g / V-omega figures (PNG and SVG) of each Mach's result on speed axis ``axis`` (tas, eas, q); the paths."""
     from romams.plots import flutter as fplots
 
     directory.mkdir(parents=True, exist_ok=True)
@@ -205,6 +217,6 @@ def write_flutter_plots(directory: Path, results: list[Any]) -> list[str]:
     for r in results:
         for ext in ("png", "svg"):
             p = directory / f"vg_M{r.mach:.2f}.{ext}"
-            p.write_bytes(fplots.vg_plot(r, fmt=ext))
+            p.write_bytes(fplots.vg_plot(r, fmt=ext, axis=axis))
             paths.append(str(p))
     return paths

@@ -98,9 +98,13 @@ def modal(
     if as_json:
         typer.echo(json.dumps(summary))
         return
-    typer.echo(f"wing {w.name}: {'baseline' if values is None else 'design ' + json.dumps(summary['design'])}")
-    for i, (f, om) in enumerate(zip(summary["frequencies_hz"], summary["omega_rad_s"], strict=True), start=1):
-        typer.echo(f"  mode {i}: {f:10.3f} Hz  ({om:10.3f} rad/s)")
-    typer.echo(f"  structural mass: {summary['mass_kg']:.5f} kg   FE nodes: {summary['n_fe_nodes']}")
+    from romams.cli.text import console, sig, table
+
+    con = console(stderr=False)
+    con.print(f"wing {w.name}: {'baseline' if values is None else 'design ' + json.dumps(summary['design'])}; "
+              f"structural mass {sig(summary['mass_kg'])} kg, {summary['n_fe_nodes']} FE nodes")
+    pairs = zip(summary["frequencies_hz"], summary["omega_rad_s"], strict=True)
+    con.print(table(None, ["mode", "f (Hz)", "omega (rad/s)"], [[i, float(f), float(om)]
+                                                                for i, (f, om) in enumerate(pairs, 1)]))
     if plot:
-        typer.echo(f"  plots: {', '.join(summary['plots'])}")
+        con.print(f"plots: {', '.join(summary['plots'])}")

@@ -2,8 +2,9 @@
 
 Feasibility follows the client's ``FlutterProblem`` (the ROM-AMS paper's constraints): the safe envelope not above
 the baseline's at any Mach (within ``envelope_tol_m``), no single-degree-of-freedom flutter, every mode fitted with
-MAC >= ``mac_threshold``, and a mass. The objective is the paper's binary penalty mass + mu * C (C = 1 when
-infeasible). Flutter rows keep 6 significant digits; the design vector is kept exactly.
+MAC >= ``mac_threshold``, and a mass. The objective is mass + mu * C with the paper's binary C (1 when infeasible)
+or, with ``penalty: "graded"``, the client's graded C (``penalty_factor``). Flutter rows keep 6 significant digits;
+the design vector is kept exactly.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 #: a run's settings and their defaults (the client's FlutterProblem defaults)
-DEFAULT_SETTINGS: dict[str, Any] = {"mu_kg": 10.0, "mac_threshold": 0.98, "envelope_tol_m": 0.01}
+DEFAULT_SETTINGS: dict[str, Any] = {"mu_kg": 10.0, "mac_threshold": 0.98, "envelope_tol_m": 0.01, "penalty": "binary"}
 #: per-Mach flutter row of a run evaluation
 FLUTTER_FIELDS = ("mach", "v_eas_m_s", "frequency_hz", "flutter_mode", "safe_altitude_m",
                   "benchmark_safe_altitude_m")
@@ -43,6 +44,24 @@ def feasible(summary: Mapping[str, Any], settings: Mapping[str, Any]) -> tuple[b
     return ok, None if env_ok is None else bool(env_ok)
 
 
+def penalty_factor(summary: Mapping[str, Any], settings: Mapping[str, Any], ok: bool,
+                   env_ok: bool | None) -> float:
+    """C of the objective mass + mu C (0 when feasible). Binary: 1. Graded (the client's FlutterProblem
+    ``penalty="graded"``): 1 + the envelope excess summed over the Machs (km, when the envelope fails) + the MAC
+    deficit below the threshold in units of 0.02 + the number of Machs with single-degree-of-freedom flutter."""
+    if ok:
+        return 0.0
+    if settings.get("penalty", "binary") != "graded":
+        return 1.0
+    margin = [m for m in summary.get("envelope_margin_m") or [] if m is not None]
+    excess_km = sum(max(-float(m), 0.0) for m in margin) / 1e3 if env_ok is False else 0.0
+    mac = summary.get("mac") or []
+    min_mac = min(mac) if mac else summary.get("min_mac")
+    deficit = max(float(settings["mac_threshold"]) - (0.0 if min_mac is None else float(min_mac)), 0.0) / 0.02
+    n_sdoff = sum(bool(r.get("sdoff")) for r in summary.get("results") or [])
+    return 1.0 + excess_km + deficit + n_sdoff
+
+
 def flutter_rows(summary: Mapping[str, Any]) -> list[list[Any]]:
     """Per-Mach [mach, flutter EAS (m/s), f_f (Hz), mode, safe altitude (m), benchmark safe altitude (m)] of a
     summary. The equivalent airspeed carries the flutter dynamic pressure on any sweep (the true airspeed of a
@@ -67,7 +86,8 @@ def compact_row(design: Sequence[float] | None, summary: Mapping[str, Any], sett
                 "evaluation_id": None}
     ok, env_ok = feasible(summary, settings)
     mass = None if summary.get("mass_kg") is None else float(summary["mass_kg"])
-    objective = None if mass is None else mass + (0.0 if ok else float(settings["mu_kg"]))
+    c = penalty_factor(summary, settings, ok, env_ok)
+    objective = None if mass is None else mass + float(settings["mu_kg"]) * c
     mac = summary.get("mac") or []
     return {"job_id": job_id, "x": x, "mass_kg": mass, "objective": objective, "feasible": ok, "envelope_ok": env_ok,
             "min_mac": _sig(min(mac) if mac else summary.get("min_mac"), 8), "flutter": flutter_rows(summary),

@@ -11,8 +11,11 @@ import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
+import httpx
 import pytest
 from fast_settings import DLM_FAST
+
+from benchmarks.live_service import free_port
 
 ROOT = Path(__file__).resolve().parents[2]
 CI = os.environ.get("CI", "").lower() == "true"
@@ -214,3 +217,51 @@ def backend_settings(request, tmp_path: Path, **kw: object):
         open_store(settings, migrate=True)
         return settings
     return Settings(data_dir=tmp_path / "data", **kw)
+
+
+@pytest.fixture()
+def server(tmp_path):
+    """`romams serve` (uvicorn + embedded child worker, SQLite under tmp_path) on a free port: (base URL, tmp_path);
+    stopped with SIGTERM at the end, and its worker must go with it."""
+    port = free_port()
+    env = service_env(tmp_path / "data", port=port, heartbeat_s=0.5)
+    log = open(tmp_path / "serve.log", "wb")  # noqa: SIM115
+    cmd = [sys.executable, "-c", "from romams.cli import main; main()", "serve", "--loglevel", "info"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    base = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            if httpx.get(f"{base}/api/v1/health", timeout=2).status_code == 200:
+                break
+        except httpx.HTTPError:
+            pass
+        if proc.poll() is not None or time.monotonic() > deadline:
+            raise AssertionError((tmp_path / "serve.log").read_text()[-3000:])
+        time.sleep(0.3)
+    children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children")
+    worker_pids = [int(p) for p in children.read_text().split()]
+    assert len(worker_pids) == 2, "romams serve starts a training and an evaluation worker"
+    try:
+        yield base, tmp_path
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=40)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+        log.close()
+        deadline = time.monotonic() + 60  # the embedded worker goes with the server (warm shutdown)
+        while any(Path(f"/proc/{p}").exists() and "zombie" not in _state(p) for p in worker_pids):
+            if time.monotonic() > deadline:
+                os.killpg(proc.pid, signal.SIGKILL)
+                raise AssertionError("the embedded worker outlived `romams serve`")
+            time.sleep(0.2)
+
+
+def _state(pid: int) -> str:
+    """Process state line from /proc (empty if gone)."""
+    try:
+        return next(line for line in Path(f"/proc/{pid}/status").read_text().splitlines() if line.startswith("State"))
+    except (OSError, StopIteration):
+        return "zombie"

@@ -21,14 +21,9 @@ from pathlib import Path
 
 import pytest
 
+from benchmarks.live_service import free_port
+
 CI = os.environ.get("CI", "").lower() == "true"
-
-
-def free_port() -> int:
-    """A TCP port of 127.0.0.1 that nothing listens on now."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _missing(what: str) -> None:

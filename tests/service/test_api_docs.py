@@ -14,8 +14,8 @@ from api.app import create_app
 from api.openapi import untyped_responses
 from romams.settings import Settings
 
+from .browser import chromium_page
 from .conftest import SentTasks
-from .test_dashboard_browser import _chromium, server  # noqa: F401 - the `romams serve` fixture
 
 
 @pytest.fixture(scope="module")
@@ -60,9 +60,7 @@ def test_openapi_types_every_json_response_with_an_example(client):
 
 
 @pytest.mark.browser
-def test_docs_render_with_the_network_blocked(server):  # noqa: F811 - the fixture imported above
-    from playwright.sync_api import sync_playwright
-
+def test_docs_render_with_the_network_blocked(server):
     base, _ = server
     local = urlsplit(base).netloc
     blocked: list[str] = []
@@ -74,25 +72,16 @@ def test_docs_render_with_the_network_blocked(server):  # noqa: F811 - the fixtu
             blocked.append(route.request.url)
             route.abort()
 
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=_chromium(), headless=True,
-                                     args=["--headless", "--no-sandbox", "--disable-gpu",
-                                           "--disable-background-networking"])
-        try:
-            page = browser.new_page(viewport={"width": 1280, "height": 900})
-            page.route("**/*", only_local)
-            errors: list[str] = []
-            page.on("pageerror", lambda exc: errors.append(str(exc)))
-            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-            page.goto(f"{base}/docs")
-            page.wait_for_selector(".opblock", timeout=20_000)
-            assert page.locator(".opblock").count() > 20
-            assert page.locator('.opblock-summary-path[data-path="/api/v1/health"]').count() == 1
-            page.goto(f"{base}/redoc")
-            page.wait_for_selector("[id$='operation/health_api_v1_health_get']", timeout=20_000)
-            assert "/api/v1/health" in page.text_content(".api-content")
-        finally:
-            browser.close()
+    with chromium_page(viewport={"width": 1280, "height": 900}) as (browser, page, errors):
+        page.route("**/*", only_local)
+        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        page.goto(f"{base}/docs")
+        page.wait_for_selector(".opblock", timeout=20_000)
+        assert page.locator(".opblock").count() > 20
+        assert page.locator('.opblock-summary-path[data-path="/api/v1/health"]').count() == 1
+        page.goto(f"{base}/redoc")
+        page.wait_for_selector("[id$='operation/health_api_v1_health_get']", timeout=20_000)
+        assert "/api/v1/health" in page.text_content(".api-content")
     # the one external URL in the bundled ReDoc: its attribution logo, refused by the page's CSP (the <img> removes
     # itself on error); no request leaves the browser for it
     errors = [e for e in errors if "cdn.redoc.ly/redoc/logo-mini.svg" not in e]

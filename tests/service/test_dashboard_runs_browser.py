@@ -16,8 +16,8 @@ import time
 import pytest
 from fast_settings import DLM_FAST
 
+from .browser import chromium_page
 from .conftest import ROOT
-from .test_dashboard_browser import _chromium, server  # noqa: F401 - the `romams serve` fixture
 
 pytestmark = pytest.mark.browser
 SCREENSHOTS = os.environ.get("ROMAMS_DOCS_SCREENSHOTS") == "1"
@@ -55,9 +55,7 @@ def _wait_count(page, selector: str, n: int, timeout_s: float = 15.0) -> None:
         time.sleep(0.2)
 
 
-def test_run_page_is_live_and_a_failed_job_shows_its_error(server):  # noqa: F811
-    from playwright.sync_api import sync_playwright
-
+def test_run_page_is_live_and_a_failed_job_shows_its_error(server):
     from client import FlutterProblem, RomamsClient
 
     base, tmp = server
@@ -78,68 +76,58 @@ def test_run_page_is_live_and_a_failed_job_shows_its_error(server):  # noqa: F81
     de = threading.Thread(target=lambda: out.update(ex.run_de(problem, generations=GENERATIONS, popsize=POP, seed=2,
                                                               log=lambda m: None)))
     total = POP * (GENERATIONS + 1)
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=_chromium(), headless=True,
-                                     args=["--headless", "--no-sandbox", "--disable-gpu",
-                                           "--disable-background-networking"])
-        try:
-            page = browser.new_page(viewport={"width": 1280, "height": 1000})
-            errors: list[str] = []
-            page.on("pageerror", lambda exc: errors.append(str(exc)))
-            page.goto(f"{base}/dashboard/runs/{problem.run_id}")
-            page.wait_for_selector("#history .empty")  # nothing evaluated yet
-            de.start()
-            seen: dict[int, int] = {}  # designs shown -> history points drawn
-            deadline = time.monotonic() + 240
-            while time.monotonic() < deadline:
-                n = int(page.text_content("#n-evaluations") or 0)
-                seen[n] = _count(page, "#history .data circle")
-                if n == total:
-                    break
-                time.sleep(0.25)
-            de.join(timeout=60)
-            assert out.get("nfev") == total, out
-            # it updated while the run went on: intermediate generations were drawn, not only the end
-            assert sorted(seen)[-1] == total and len([n for n in seen if 0 < n < total]) >= 2, seen
-            _wait_count(page, "#history .data circle", total)
-            drawn = [seen[n] for n in sorted(seen)]  # the history plot grew with the count of designs
-            assert drawn == sorted(drawn) and any(0 < d < total for d in drawn), seen
-            assert _count(page, "#designs tbody tr") == total
-            assert _count(page, "#parallel .lines path") == total
-            run = client.get_run(problem.run_id)
-            assert run["n_evaluations"] == total and run["n_feasible"] + run["n_infeasible"] == total
-            assert page.text_content("#n-feasible") == str(run["n_feasible"])
-            if run["n_feasible"]:
-                assert _count(page, "#history .best-so-far") == 1
-            # the best design's envelope against the benchmark, shaded by pass / fail
-            assert _count(page, "#envelope path.benchmark") == 1 and _count(page, "#envelope path.best-design") == 1
-            assert _count(page, "#envelope .pass, #envelope .fail") >= 1
-            page.select_option("#design-order", "best")  # the table sorted best first: the run's best on top
-            assert page.get_attribute("#designs tbody tr:first-child", "data-eval") == str(run["best"]["id"])
-            assert page.get_attribute("#designs tbody tr:first-child", "class") == "best"
-            _shot(page, tmp, "dashboard_run.png")
+    with client, chromium_page(viewport={"width": 1280, "height": 1000}) as (browser, page, errors):
+        page.goto(f"{base}/dashboard/runs/{problem.run_id}")
+        page.wait_for_selector("#history .empty")  # nothing evaluated yet
+        de.start()
+        seen: dict[int, int] = {}  # designs shown -> history points drawn
+        deadline = time.monotonic() + 240
+        while time.monotonic() < deadline:
+            n = int(page.text_content("#n-evaluations") or 0)
+            seen[n] = _count(page, "#history .data circle")
+            if n == total:
+                break
+            time.sleep(0.25)
+        de.join(timeout=60)
+        assert out.get("nfev") == total, out
+        # it updated while the run went on: intermediate generations were drawn, not only the end
+        assert sorted(seen)[-1] == total and len([n for n in seen if 0 < n < total]) >= 2, seen
+        _wait_count(page, "#history .data circle", total)
+        drawn = [seen[n] for n in sorted(seen)]  # the history plot grew with the count of designs
+        assert drawn == sorted(drawn) and any(0 < d < total for d in drawn), seen
+        assert _count(page, "#designs tbody tr") == total
+        assert _count(page, "#parallel .lines path") == total
+        run = client.get_run(problem.run_id)
+        assert run["n_evaluations"] == total and run["n_feasible"] + run["n_infeasible"] == total
+        assert page.text_content("#n-feasible") == str(run["n_feasible"])
+        if run["n_feasible"]:
+            assert _count(page, "#history .best-so-far") == 1
+        # the best design's envelope against the benchmark, shaded by pass / fail
+        assert _count(page, "#envelope path.benchmark") == 1 and _count(page, "#envelope path.best-design") == 1
+        assert _count(page, "#envelope .pass, #envelope .fail") >= 1
+        page.select_option("#design-order", "best")  # the table sorted best first: the run's best on top
+        assert page.get_attribute("#designs tbody tr:first-child", "data-eval") == str(run["best"]["id"])
+        assert page.get_attribute("#designs tbody tr:first-child", "class") == "best"
+        _shot(page, tmp, "dashboard_run.png")
 
-            # a failed job: its page shows the error and the traceback
-            job_id = client.start_training(wid, 0.5, solver="uvlm", options={"k_max": -1.0})[0]["job_id"]
-            deadline = time.monotonic() + 120
-            while client.get_job(job_id)["status"] not in ("failed", "succeeded", "cancelled"):
-                assert time.monotonic() < deadline
-                time.sleep(0.3)
-            page.goto(f"{base}/dashboard/jobs/{job_id}")
-            assert page.text_content("#job-status") == "failed"
-            assert "k_max" in page.text_content("#job-error pre.error")
-            assert "Traceback (most recent call last)" in page.text_content("#job-error pre.traceback")
-            assert page.get_attribute("#job-error time, table.kv time", "title") is not None
-            _shot(page, tmp, "dashboard_job.png")
+        # a failed job: its page shows the error and the traceback
+        job_id = client.start_training(wid, 0.5, solver="uvlm", options={"k_max": -1.0})[0]["job_id"]
+        deadline = time.monotonic() + 120
+        while client.get_job(job_id)["status"] not in ("failed", "succeeded", "cancelled"):
+            assert time.monotonic() < deadline
+            time.sleep(0.3)
+        page.goto(f"{base}/dashboard/jobs/{job_id}")
+        assert page.text_content("#job-status") == "failed"
+        assert "k_max" in page.text_content("#job-error pre.error")
+        assert "Traceback (most recent call last)" in page.text_content("#job-error pre.traceback")
+        assert page.get_attribute("#job-error time, table.kv time", "title") is not None
+        _shot(page, tmp, "dashboard_job.png")
 
-            # the job list: the run's batches only when filtered by run; relative times with the ISO time as title
-            page.goto(f"{base}/dashboard/jobs")
-            page.wait_for_selector(f'#jobs tr[data-job="{job_id}"]')
-            assert "ago" in page.text_content(f'#jobs tr[data-job="{job_id}"] time')
-            assert _count(page, "#jobs td a[href^='/dashboard/runs/']") == 0
-            page.goto(f"{base}/dashboard/jobs?run_id={problem.run_id}")
-            _wait_count(page, f'#jobs tbody a[href="/dashboard/runs/{problem.run_id}"]', GENERATIONS + 1)
-            assert not errors, errors
-        finally:
-            browser.close()
-            client.close()
+        # the job list: the run's batches only when filtered by run; relative times with the ISO time as title
+        page.goto(f"{base}/dashboard/jobs")
+        page.wait_for_selector(f'#jobs tr[data-job="{job_id}"]')
+        assert "ago" in page.text_content(f'#jobs tr[data-job="{job_id}"] time')
+        assert _count(page, "#jobs td a[href^='/dashboard/runs/']") == 0
+        page.goto(f"{base}/dashboard/jobs?run_id={problem.run_id}")
+        _wait_count(page, f'#jobs tbody a[href="/dashboard/runs/{problem.run_id}"]', GENERATIONS + 1)
+        assert not errors, errors

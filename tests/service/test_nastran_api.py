@@ -11,23 +11,13 @@ import os
 import tempfile
 import zipfile
 
+import nastran_decks as nd  # tests/nastran_decks.py: skips this module without pyNastran (not under CI)
 import pytest
 from fastapi.testclient import TestClient
 
 from api.app import create_app
 from romams.settings import Settings
 from romams_core.mesh import Planform
-
-try:
-    from romams_core.modes_io import _import_pynastran
-
-    _import_pynastran()
-except ImportError:
-    if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
-        raise
-    pytest.skip("pyNastran not installed (it is required under CI)", allow_module_level=True)
-
-import nastran_decks as nd  # noqa: E402 (tests/nastran_decks.py: needs pyNastran)
 
 STICK = Planform(root_chord=0.3, tip_chord=0.3, semispan=0.5, sweep_le=0.0, n_chord=6, n_span=10)
 

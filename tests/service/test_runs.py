@@ -58,7 +58,7 @@ def test_create_and_read_runs(svc):
     run = r.json()
     assert r.headers["location"] == f"/api/v1/runs/{run['id']}"
     assert run["name"] == "DE study" and run["wing_id"] == svc.wing_id and run["status"] == "empty"
-    assert run["settings"] == {"mu_kg": 5.0, "mac_threshold": 0.98, "envelope_tol_m": 0.01}
+    assert run["settings"] == {"mu_kg": 5.0, "mac_threshold": 0.98, "envelope_tol_m": 0.01, "penalty": "binary"}
     assert run["n_evaluations"] == 0 and run["best"] is None
     assert c.get(f"/api/v1/runs/{run['id']}").json()["id"] == run["id"]
     assert run["id"] in [x["id"] for x in c.get("/api/v1/runs").json()]
@@ -69,6 +69,7 @@ def test_create_and_read_runs(svc):
     _problem(c.post("/api/v1/runs", json={"name": "x" * 201}), 422, "name")
     _problem(c.post("/api/v1/runs", json={}), 422, "name")
     _problem(c.post("/api/v1/runs", json={"name": "a", "mu_kg": -1.0}), 422, "mu_kg")
+    _problem(c.post("/api/v1/runs", json={"name": "a", "penalty": "steep"}), 422, "penalty")
     _problem(c.post("/api/v1/runs", json={"name": "a", "wing": "no-such-wing"}), 404, "wing")
     url = f"/api/v1/wings/{svc.wing_id}/flutter/batch"
     _problem(c.post(url, json={"designs": _designs(1, 1), "run_id": 999999}), 404, "run_id")
@@ -80,6 +81,20 @@ def _feasible(r: dict, mu: float) -> tuple[bool, float]:
     env_ok = r["envelope_ok"] is None or r["envelope_ok"] or min(r["envelope_margin_m"]) >= -0.01
     ok = bool(env_ok and not r["sdoff"] and min(r["mac"]) >= 0.98)
     return ok, r["mass_kg"] + (0.0 if ok else mu)
+
+
+def test_graded_penalty_factor():
+    """The run's graded C (romams.services.runs.penalty_factor, the client's FlutterProblem(penalty="graded"))."""
+    from romams.services.runs import penalty_factor, run_settings
+
+    graded, binary = run_settings({"penalty": "graded"}), run_settings(None)
+    summary = {"envelope_margin_m": [-1500.0, 200.0, -500.0], "mac": [0.999, 0.97],
+               "results": [{"sdoff": True}, {"sdoff": False}, {"sdoff": True}]}
+    # envelope excess 2 km (failing envelope), MAC deficit 0.01 / 0.02, two SDOFF Machs
+    assert penalty_factor(summary, graded, ok=False, env_ok=False) == pytest.approx(1 + 2.0 + 0.5 + 2)
+    assert penalty_factor(summary, graded, ok=False, env_ok=True) == pytest.approx(1 + 0.5 + 2)
+    assert penalty_factor(summary, binary, ok=False, env_ok=False) == 1.0
+    assert penalty_factor(summary, graded, ok=True, env_ok=True) == 0.0
 
 
 def test_every_design_of_a_run_is_stored_compactly(svc):
@@ -130,6 +145,22 @@ def test_every_design_of_a_run_is_stored_compactly(svc):
     scripts = [f'<script src="/static/{n}.js">' for n in ("common", "plots", "run")]
     assert re.findall(r"<script[^>]*>", page.text) == scripts  # no inline script (the CSP allows none)
     assert c.get("/dashboard/runs/999999").status_code == 404 and c.get("/dashboard/runs").status_code == 200
+
+
+def test_a_best_design_from_the_result_cache_keeps_its_vg(svc):
+    """The worker's result cache keeps summaries only: a run's new best design answered from it is evaluated again
+    so that its V-g data are kept (the same designs in fresh runs, so that they come from a worker's cache)."""
+    c = svc.client
+    designs = _designs(3, 41)
+    _batch(svc, designs)  # evaluated (and cached) outside any run
+    for k in range(3):  # each chunk lands on one of the worker's processes: repeat so that the cache serves them
+        run_id = c.post("/api/v1/runs", json={"name": f"cached {k}"}).json()["id"]
+        _batch(svc, designs, run_id=run_id)
+        s = c.get(f"/api/v1/runs/{run_id}").json()
+        if s["best"] is not None and s["best"]["feasible"]:
+            assert s["best"]["evaluation_id"] is not None, s
+            vg = c.get(f"/api/v1/evaluations/{s['best']['evaluation_id']}/vg").json()
+            assert len(vg["machs"][0]["g"]) > 0
 
 
 def test_keep_vg_keeps_every_design(svc):
