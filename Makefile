@@ -1,8 +1,9 @@
 # Two commands on a fresh machine:  `make demo`  and  `make test`.
 PY ?= python3
-# the suite runs on 2 pytest-xdist workers (CI has 2 cores; many tests wait on services); loadgroup keeps the tests of
-# one expensive shared fixture on one worker (tests/conftest.py); PYTEST_ARGS= runs it serially
-PYTEST_ARGS ?= -n 2 --dist loadgroup
+# the suite runs on 2 pytest-xdist workers (CI has 2 cores; many tests wait on services); loadscope keeps a module's
+# tests on one worker, so a module's expensive fixture (a live service, trained ROMs) is built once; PYTEST_ARGS= runs
+# it serially. (loadgroup would be finer, but pytest-xdist 3.8 cannot tag node ids under pytest 9.)
+PYTEST_ARGS ?= -n 2 --dist loadscope
 VENV ?= .venv
 BIN := $(VENV)/bin
 

@@ -23,35 +23,3 @@ def data_dir(tmp_path, monkeypatch):
     yield tmp_path
     get_settings.cache_clear()
 
-
-_TESTS_DIR = os.path.dirname(os.path.abspath(__file__))
-_WIDER = {"module": 1, "package": 2, "session": 3}
-
-
-@pytest.hookimpl(tryfirst=True)
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Tests sharing an expensive fixture (module, package or session scope, defined under tests/: a live service,
-    trained ROMs) get one ``xdist_group``, so ``--dist loadgroup`` runs them on one worker and the fixture is built
-    once instead of once per worker; every other test is scheduled on its own. The group is the test's module for a
-    module-scoped fixture, the fixture itself for a wider one (the widest a test uses wins)."""
-    import inspect
-
-    for item in items:
-        info = getattr(item, "_fixtureinfo", None)
-        best: tuple[int, str] | None = None
-        for name in info.names_closure if info is not None else ():
-            defs = info.name2fixturedefs.get(name)
-            if not defs or defs[-1].scope not in _WIDER:
-                continue
-            try:
-                path = os.path.abspath(inspect.getfile(defs[-1].func))
-            except TypeError:
-                continue
-            if not path.startswith(_TESTS_DIR + os.sep):
-                continue  # a plugin's (tmp_path_factory, ...): cheap
-            rank = _WIDER[defs[-1].scope]
-            group = item.nodeid.split("::")[0] if rank == 1 else f"{os.path.relpath(path, _TESTS_DIR)}::{name}"
-            if best is None or rank > best[0]:
-                best = (rank, group)
-        if best is not None:
-            item.add_marker(pytest.mark.xdist_group(best[1]))
