@@ -157,10 +157,10 @@ def test_a_best_design_from_the_result_cache_keeps_its_vg(svc):
         run_id = c.post("/api/v1/runs", json={"name": f"cached {k}"}).json()["id"]
         _batch(svc, designs, run_id=run_id)
         s = c.get(f"/api/v1/runs/{run_id}").json()
-        if s["best"] is not None and s["best"]["feasible"]:
-            assert s["best"]["evaluation_id"] is not None, s
-            vg = c.get(f"/api/v1/evaluations/{s['best']['evaluation_id']}/vg").json()
-            assert len(vg["machs"][0]["g"]) > 0
+        assert s["best"] is not None and s["best"]["feasible"], s  # these designs have a feasible best
+        assert s["best"]["evaluation_id"] is not None, s
+        vg = c.get(f"/api/v1/evaluations/{s['best']['evaluation_id']}/vg").json()
+        assert len(vg["machs"][0]["g"]) > 0
 
 
 def test_keep_vg_keeps_every_design(svc):
