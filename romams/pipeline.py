@@ -20,7 +20,7 @@ import numpy as np
 
 from romams.services.evaluation import DEFAULT_MAC_THRESHOLD, DEFAULT_N_MODES, Models
 from romams.services.models import activate_first_basis, resolve_basis_id
-from romams.services.training import is_frequency_solver, quality_line, rom_identity, train
+from romams.services.training import is_external, is_frequency_solver, quality_line, rom_identity, train
 from romams.services.training import make_solver as make_solver  # re-exported
 from romams_core.basis import Basis, build_basis, build_basis_for_wing, snapshot
 from romams_core.mesh import StandardMesh, standard_mesh
@@ -205,6 +205,8 @@ def ensure_roms(
             missing.append(float(mach))
         else:
             out[float(mach)] = (int(found[0]), found[1])
+    if missing and is_external(str(ident["solver"])):  # an imported table is never trained here
+        make_solver(str(ident["solver"]))  # raises the ValueError that says how to import it
     if missing:
         log(f"training {len(missing)} ROM(s) with {ident['solver']} on {basis.n_basis} basis shapes at Mach "
             + ", ".join(f"{m:g}" for m in missing))

@@ -75,3 +75,46 @@ def test_train_command_rejects_bad_input(data_dir):
     assert res.exit_code == 2 and "unknown template" in res.output
     res = runner.invoke(app, ["train", "--reduce", "lots"])
     assert res.exit_code == 2 and "--reduce" in res.output
+
+
+def test_gaf_table_export_import_and_flutter_with_the_imported_model(data_dir):
+    """``romams train --export-gaf`` writes the DLM ROM's table; ``--gaf FILE --label L`` imports it as the ROM of
+    solver external:L (the same RFA fit); ``romams flutter --solver external:L`` uses it: the same flutter point as
+    the DLM ROM it came from. Bad tables are usage errors naming the option, and nothing is stored."""
+    from romams.pipeline import cli_models, resolve_wing, rom_identity
+    from romams.services.evaluation import evaluate_structure_summary
+    from romams_core.gaf_table import GafTable, gaf_npz
+
+    runner = CliRunner()
+    table = data_dir / "dlm_M0.87.npz"
+    res = runner.invoke(app, ["train", "--mach", "0.87", "--lattice-refine", "1", "--export-gaf", str(table),
+                              "--json"])
+    assert res.exit_code == 0, res.output
+    dlm = json.loads(res.stdout)
+    res = runner.invoke(app, ["train", "--gaf", str(table), "--label", "copy", "--json"])
+    assert res.exit_code == 0, res.output
+    ext = json.loads(res.stdout)
+    assert ext["solver"] == "external:copy" and ext["kind"] == "rfa" and ext["mach"] == 0.87
+    assert ext["rom_id"] != dlm["rom_id"] and ext["fit_error_max"] == pytest.approx(dlm["fit_error_max"], rel=1e-9)
+    res = runner.invoke(app, ["flutter", "--baseline", "--mach", "0.87", "--solver", "external:copy", "--json"])
+    assert res.exit_code == 0, res.output
+    (r_ext,) = json.loads(res.stdout)["results"]
+    st = open_store()
+    wid, w = resolve_wing(st, "cropped-delta")
+    models = cli_models(st, wid, w, [0.87], rom_identity("dlm", options={"lattice_refine": 1}))
+    (r_dlm,) = evaluate_structure_summary(models)[0]["results"]
+    assert r_ext["solver"] == "external:copy" and r_ext["flutter_mode"] == r_dlm["flutter_mode"]
+    assert r_ext["q_flutter_pa"] == pytest.approx(r_dlm["q_flutter_pa"], rel=1e-9)
+
+    n_roms = len(st.roms.of_wing(wid))
+    bad = data_dir / "bad.npz"
+    bad.write_bytes(gaf_npz(GafTable(0.87, np.array([0.0, 0.1, 0.3, 0.6]), np.zeros((4, 2, 2)))))
+    for args, hint in ((["--gaf", str(table)], "--label"),
+                       (["--gaf", str(bad), "--label", "two"], "--gaf"),  # 2 shapes, the basis has more
+                       (["--gaf", str(table), "--label", "a b"], "--label"),
+                       (["--gaf", str(data_dir / "missing.npz"), "--label", "x"], "--gaf")):
+        res = runner.invoke(app, ["train", *args])
+        assert res.exit_code == 2 and hint in res.output, res.output
+    assert len(st.roms.of_wing(wid)) == n_roms
+    res = runner.invoke(app, ["flutter", "--baseline", "--mach", "0.79", "--solver", "external:copy"])
+    assert res.exit_code == 2 and "--solver" in res.output and "import" in res.output

@@ -18,7 +18,7 @@ from romams.cli.modal import parse_design
 from romams.services.errors import ServiceError
 from romams.services.evaluation import DEFAULT_MAC_THRESHOLD, DEFAULT_N_MODES
 from romams.services.flight import FlightCondition
-from romams.services.training import DEFAULT_SOLVER, SOLVERS, available
+from romams.services.training import DEFAULT_SOLVER, SOLVERS, available, is_external
 
 #: the CLI option of each field of a Nastran read
 NASTRAN_HINTS = {"subcase": "--subcase", "modes": "--op2-modes", "n_modes": "--op2-modes", "grids": "--grids",
@@ -155,9 +155,10 @@ def flutter_command(
 
             raise bad_input(exc, NASTRAN_HINTS, "--modes") from None
     machs = sorted(set(float(m) for m in mach))
-    if solver not in SOLVERS or not available(solver):
+    if not (is_external(solver) or (solver in SOLVERS and available(solver))):
         raise typer.BadParameter(f"unknown or unavailable solver {solver!r}; one of "
-                                 f"{', '.join(x for x in SOLVERS if available(x))}", param_hint="--solver")
+                                 f"{', '.join(x for x in SOLVERS if available(x))} or external:LABEL (an imported "
+                                 "GAF table)", param_hint="--solver")
     ident = rom_identity(solver, na, nb, wing=w)
     try:
         models = cli_models(store, wing_id, w, machs, ident, basis_id=basis_id, samples=samples, modes=n_modes,
@@ -177,7 +178,8 @@ def flutter_command(
     except ValueError as exc:  # a core input error (e.g. a planform-only wing without --modes)
         from romams.cli.wing import bad_input
 
-        raise bad_input(exc, {**NASTRAN_HINTS, "design": "--design", "modes": "--modes"}, "--wing") from None
+        raise bad_input(exc, {**NASTRAN_HINTS, "design": "--design", "modes": "--modes", "solver": "--solver"},
+                        "--wing") from None
     if plot is not None:
         summary["plots"] = write_flutter_plots(plot, result.flutter, plot_axis)
     if as_json:

@@ -32,7 +32,8 @@ def _reduce_option(value: str | None) -> int | str | None:
 @app.command("train")
 def train_command(
     wing: str = typer.Option("cropped-delta", "--wing", help=WING_HELP),
-    mach: float = typer.Option(0.87, "--mach", min=0.0, max=0.99, help="free-stream Mach number"),
+    mach: float | None = typer.Option(None, "--mach", min=0.0, max=0.99, help="free-stream Mach number (default "
+                                      "0.87; with --gaf: the table's)"),
     solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver: dlm (doublet lattice, "
                                "rational-function ROM), uvlm (time domain, ARX ROM) or tsd (transonic small "
                                "disturbance, minutes per Mach)"),
@@ -49,6 +50,10 @@ def train_command(
                                             "multiplied by this (0.25-4; 0.5 is a quick run)"),
     linearity_check: bool = typer.Option(False, "--linearity-check", help="tsd: rerun at half amplitude and report "
                                          "the deviation from linear scaling"),
+    gaf: Path | None = typer.Option(None, "--gaf", help="import a GAF table (NPZ or CSV, computed on the basis "
+                                    "shapes) as the ROM of solver external:LABEL instead of training one"),
+    label: str | None = typer.Option(None, "--label", help="with --gaf: the table's name (solver external:LABEL)"),
+    export_gaf: Path | None = typer.Option(None, "--export-gaf", help="write the ROM's GAF table (NPZ) here"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
     plot: Path | None = typer.Option(None, "--plot", help="write PNG figures (signals, validation) here"),
 ) -> None:
@@ -96,20 +101,25 @@ def train_command(
         basis_id, basis = ensure_basis(store, wing_id, w)  # says on stderr when it builds one
     except ValueError as exc:  # a planform-only wing: its basis comes from its modes (romams flutter --modes)
         raise typer.BadParameter(str(exc), param_hint="--wing") from None
-    ident = rom_identity(solver, na, nb, options, wing=w)
-    try:
-        check_options(solver, ident["options"], basis.n_basis)
-    except ServiceError as exc:
-        raise typer.BadParameter(exc.reason, param_hint=exc.field or "--solver") from None
-    try:
-        with progress_bar(console(), f"training the {solver} ROM at M {mach:g}") as bar:
-            roms = ensure_roms(store, wing_id, w, basis_id, basis, [mach], ident=ident, processes=1, progress=bar)
-    except TrainingError as exc:
-        typer.echo(f"training failed: {exc}", err=True)
-        raise typer.Exit(code=2) from None
-    except ValueError as exc:
-        raise typer.BadParameter(str(exc)) from None
-    rom_id, rom = roms[float(mach)]
+    if gaf is not None:
+        rom_id, rom = _import_gaf(store, wing_id, w, basis_id, basis, gaf, label, mach, options)
+    else:
+        mach = 0.87 if mach is None else mach
+        ident = rom_identity(solver, na, nb, options, wing=w)
+        try:
+            check_options(solver, ident["options"], basis.n_basis)
+        except ServiceError as exc:
+            raise typer.BadParameter(exc.reason, param_hint=exc.field or "--solver") from None
+        try:
+            with progress_bar(console(), f"training the {solver} ROM at M {mach:g}") as bar:
+                roms = ensure_roms(store, wing_id, w, basis_id, basis, [mach], ident=ident, processes=1,
+                                   progress=bar)
+        except TrainingError as exc:
+            typer.echo(f"training failed: {exc}", err=True)
+            raise typer.Exit(code=2) from None
+        except ValueError as exc:
+            raise typer.BadParameter(str(exc)) from None
+        rom_id, rom = roms[float(mach)]
     report: dict[str, Any] = {
         "rom_id": rom_id,
         "mach": float(rom.mach),
@@ -134,6 +144,15 @@ def train_command(
                       solver_seconds=round(float(rom.solver_seconds), 3))
     if plot is not None:
         report["plots"] = _write_plots(plot, rom)
+    if export_gaf is not None:
+        if not is_frequency_solver(rom.solver):
+            raise typer.BadParameter(f"a {rom.solver} ROM has no GAF table (an RFA ROM has: dlm, external)",
+                                     param_hint="--export-gaf")
+        from romams_core.gaf_table import GafTable, gaf_npz
+
+        export_gaf.parent.mkdir(parents=True, exist_ok=True)
+        export_gaf.write_bytes(gaf_npz(GafTable(rom.mach, rom.k_values, rom.gaf)))
+        report["gaf_table"] = str(export_gaf)
     if as_json:
         typer.echo(json.dumps(report))
         return
@@ -141,6 +160,28 @@ def train_command(
         typer.echo(f"warning: {msg}", err=True)
     typer.echo(f"rom {rom_id}: M = {rom.mach:g}, {rom.solver}, {rom.n_basis} basis shapes, {quality_line(rom)}, "
                f"trained in {sig(rom.train_seconds)} s (wall)")
+
+
+def _import_gaf(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, path: Path, label: str | None,
+                mach: float | None, options: dict[str, Any]) -> tuple[int, Any]:
+    """(rom_id, ROM) of an imported GAF table (``romams.services.gaf_import``), usage errors naming the option."""
+    from romams.services.gaf_import import import_table, parse_table
+
+    if label is None:
+        raise typer.BadParameter("a GAF table needs a name: --label NAME (its solver is external:NAME)",
+                                 param_hint="--label")
+    fit = {k: v for k, v in options.items() if k in ("n_lags", "reduce_order")}
+    extra = sorted(set(options) - set(fit))
+    if extra:
+        raise typer.BadParameter(f"{', '.join(extra)}: not settings of an imported table", param_hint="--gaf")
+    hints = {"label": "--label", "mach": "--mach", "n_lags": "--n-lags", "reduce_order": "--reduce"}
+    try:
+        table = parse_table(path.read_bytes(), path.name, mach)
+        return import_table(store, wing_id, wing, basis_id, basis, table, label, **fit)
+    except OSError as exc:
+        raise typer.BadParameter(f"cannot read {path.name}: {exc.strerror}", param_hint="--gaf") from None
+    except ServiceError as exc:
+        raise typer.BadParameter(exc.reason, param_hint=hints.get(str(exc.field), f"--gaf ({exc.field})")) from None
 
 
 def _write_plots(directory: Path, rom: Any) -> list[str]:

@@ -57,13 +57,20 @@ class Conflict(ServiceError):
     status = 409
 
 
+class PayloadTooLarge(ServiceError):
+    """413: an uploaded file is larger than the service takes."""
+
+    status = 413
+
+
 class ServerError(ServiceError):
     """500: the service failed on valid input."""
 
     status = 500
 
 
-_BY_STATUS: dict[int, type[ServiceError]] = {422: InvalidInput, 404: NotFound, 409: Conflict, 500: ServerError}
+_BY_STATUS: dict[int, type[ServiceError]] = {422: InvalidInput, 404: NotFound, 409: Conflict, 413: PayloadTooLarge,
+                                              500: ServerError}
 
 
 #: Field roots the core uses for a whole input object: under a request ``prefix`` the prefix replaces them

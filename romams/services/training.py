@@ -29,9 +29,18 @@ SOLVERS = FREQUENCY_SOLVERS + TIME_SOLVERS
 RESERVED_OPTIONS = frozenset({"mesh", "shapes", "mach", "solver", "na", "nb", "progress"})
 
 
+#: Name prefix of the ROMs fitted to imported GAF tables (``romams.services.gaf_import``): "external:<label>".
+EXTERNAL_PREFIX = "external:"
+
+
+def is_external(name: str) -> bool:
+    """True for an imported (external) aerodynamic model, "external:<label>"."""
+    return str(name).startswith(EXTERNAL_PREFIX)
+
+
 def is_frequency_solver(name: str) -> bool:
-    """True for a frequency-domain solver (trained by an RFA)."""
-    return name in FREQUENCY_SOLVERS
+    """True for a frequency-domain solver (trained by an RFA), an imported GAF table's included."""
+    return name in FREQUENCY_SOLVERS or is_external(name)
 
 
 def available(name: str) -> bool:
@@ -43,6 +52,10 @@ def available(name: str) -> bool:
 
 def make_solver(name: str) -> Any:
     """Aerodynamic solver by name: "dlm", "uvlm", or "tsd" once the transonic solver is installed."""
+    if is_external(name):
+        raise ValueError(f"solver: {name!r} is an imported GAF table, not a solver the service can run; import the "
+                         f"table for this Mach first (romams train --gaf FILE --label {name[len(EXTERNAL_PREFIX):]}, "
+                         "or POST /api/v1/wings/{wing}/roms/gaf)")
     if name == "dlm":
         from romams_core.aero.dlm import DlmSolver
 
