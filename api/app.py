@@ -75,9 +75,9 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
 
     from api.dashboard import router as dashboard_router
     from api.dashboard_pages import router as pages_router
-    from api.routes import flutter, jobs, modes, runs, wings
+    from api.routes import flutter, jobs, modes, runs, tables, wings
 
-    for r in (wings.router, jobs.router, flutter.router, modes.router, runs.router):
+    for r in (tables.router, wings.router, jobs.router, flutter.router, modes.router, runs.router):  # shapes.npz first
         app.include_router(r, prefix="/api/v1")
     app.include_router(dashboard_router)
     app.include_router(pages_router)

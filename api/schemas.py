@@ -133,8 +133,11 @@ class FlightFields(_Strict):
                                                                            "pressure (Pa; default 4 q_ref)")
 
 
-SOLVER_CHOICE = ("aerodynamic solver whose ROMs to use (ROMs of several solvers may be trained for one Mach; "
-                 "default: the dlm ROM where one is trained, else the newest ROM of that Mach)")
+SOLVER_CHOICE = ("aerodynamic solver whose ROMs to use: dlm, uvlm, tsd, or external:<label> for an imported GAF table "
+                 "(ROMs of several solvers may be trained for one Mach; default: the dlm ROM where one is trained, "
+                 "else the newest ROM of that Mach)")
+#: a solver whose ROMs an evaluation uses: a built-in one or an imported table's
+EvalSolver = Annotated[str, Field(pattern=r"^(dlm|uvlm|tsd|external:[A-Za-z0-9_.-]{1,40})$", max_length=49)]
 
 
 class FlutterRequest(FlightFields):
@@ -150,7 +153,7 @@ class FlutterRequest(FlightFields):
         "trained on this structure's own modes at every Mach with the trained ROMs' solver settings; "
         "a training-queue job (202 with job_id).")
     basis_id: RowId | None = Field(default=None, description="basis to use (default: the wing's active basis)")
-    solver: Literal["dlm", "uvlm", "tsd"] | None = Field(default=None, description=SOLVER_CHOICE)
+    solver: EvalSolver | None = Field(default=None, description=SOLVER_CHOICE)
     store: bool = Field(default=True, description="store the evaluation (V-g data, plots)")
 
     @model_validator(mode="after")
@@ -167,7 +170,7 @@ class BatchRequest(FlightFields):
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
     method: Literal["rom-ams"] = "rom-ams"
     basis_id: RowId | None = Field(default=None, description="basis to use (default: the wing's active basis)")
-    solver: Literal["dlm", "uvlm", "tsd"] | None = Field(default=None, description=SOLVER_CHOICE)
+    solver: EvalSolver | None = Field(default=None, description=SOLVER_CHOICE)
     run_id: RowId | None = Field(default=None, description="run (POST /api/v1/runs) whose evaluations these designs "
                                  "are: each is stored compactly as an evaluation of the run")
     keep_vg: bool = Field(default=False, description="with run_id: keep the V-g data of every design of this batch "

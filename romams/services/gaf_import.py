@@ -37,8 +37,11 @@ def parse_table(data: bytes, filename: str = "", mach: float | None = None) -> G
     field, PayloadTooLarge above MAX_TABLE_BYTES."""
     if len(data) > MAX_TABLE_BYTES:
         raise PayloadTooLarge("file", f"{len(data)} bytes; at most {MAX_TABLE_BYTES}")
+    is_csv = filename.lower().endswith(".csv") or data.lstrip()[:12].lower().replace(b" ", b"") == b"k,row,col,re"
+    if not (data.startswith(b"PK") or is_csv):
+        raise InvalidInput("file", "neither an NPZ file (a zip) nor a CSV table with the header k,row,col,real,imag")
     try:
-        if filename.lower().endswith(".csv") or (not data.startswith(b"PK") and data[:1].isalpha()):
+        if is_csv:
             if mach is None:
                 raise InvalidInput("mach", "a CSV table needs its Mach number")
             try:
