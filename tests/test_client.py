@@ -141,6 +141,36 @@ def test_evaluate_baseline_vg_and_plots(client, wing) -> None:
         client.plot(out["evaluation_id"], "png", axis="mach")
 
 
+def test_gaf_table_from_an_own_code_through_the_client(client, wing) -> None:
+    """basis_shapes() -> a doublet lattice of our own (the DLM on one box per panel, standing in for a user's code)
+    -> import_gaf() -> flutter with solver external:<label>: close to the service's dlm ROM of the same lattice
+    (that one is balanced-reduced, reduce_order="auto": about 1 % apart)."""
+    import io
+
+    from romams_core.aero.dlm import DlmSolver
+    from romams_core.mesh import standard_mesh
+    from romams_core.training_rfa import DEFAULT_K_VALUES
+    from romams_core.wing import template
+
+    bid = client.get_wing(wing)["active_basis_id"]
+    arrays = client.basis_shapes(bid)
+    mesh = standard_mesh(template("cropped-delta").planform)
+    np.testing.assert_allclose(arrays["x"], mesh.x)
+    k = np.asarray(DEFAULT_K_VALUES)
+    gaf = DlmSolver(refine=1).gaf(mesh, arrays["shapes"], 0.95, k)
+    buf = io.BytesIO()
+    np.savez(buf, k=k, gaf_real=gaf.real, gaf_imag=gaf.imag, mach=0.95)
+    rom = client.import_gaf(wing, buf.getvalue(), "own-dlm")
+    assert rom["solver"] == "external:own-dlm" and rom["mach"] == 0.95 and rom["basis_id"] == bid
+    own = client.evaluate(wing, None, machs=[0.95], solver="external:own-dlm", store=False)["results"][0]
+    ref = client.evaluate(wing, None, machs=[0.95], solver="dlm", store=False)["results"][0]
+    assert own["solver"] == "external:own-dlm" and own["flutter_mode"] == ref["flutter_mode"]
+    assert own["q_flutter_pa"] == pytest.approx(ref["q_flutter_pa"], rel=0.03)
+    with pytest.raises(RomamsError) as e:
+        client.import_gaf(wing, b"junk", "bad")
+    assert e.value.status == 422 and e.value.field == "file"
+
+
 def _same_result(a: dict, b: dict) -> None:
     """Two result dicts of one design agree (the evaluation is deterministic)."""
     assert a["mass_kg"] == pytest.approx(b["mass_kg"], rel=1e-12)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
@@ -116,13 +117,15 @@ class RomamsClient:
         return wait
 
     def request(self, method: str, path: str, *, json: Any = None, params: Mapping[str, Any] | None = None,
-                accept: Sequence[int] = (200, 201, 202)) -> httpx.Response:
-        """Send one API request (path relative to /api/v1), retrying transient failures; RomamsError otherwise."""
+                accept: Sequence[int] = (200, 201, 202), files: Mapping[str, Any] | None = None,
+                data: Mapping[str, str] | None = None) -> httpx.Response:
+        """Send one API request (path relative to /api/v1), retrying transient failures; RomamsError otherwise.
+        ``files``/``data``: a multipart upload (httpx's arguments)."""
         url = self.api + path
         for attempt in range(self.retries + 1):
             self.requests_sent += 1
             try:
-                r = self._http.request(method, url, json=json, params=params)
+                r = self._http.request(method, url, json=json, params=params, files=files, data=data)
             except RETRY_EXCEPTIONS as exc:
                 if attempt == self.retries:
                     raise RomamsError(0, "Connection failed", f"{method} {url}: {type(exc).__name__}: {exc} "
@@ -300,6 +303,36 @@ class RomamsClient:
                  desc: str | None = None) -> dict[str, Any]:
         """Wait for one job to succeed (tqdm progress bar); returns the job. JobError if it failed or was cancelled."""
         return self.wait_jobs([job_id], timeout_s, poll_s, progress, desc or f"job {str(job_id)[:8]}")[0]
+
+    def basis_shapes(self, basis_id: int) -> dict[str, np.ndarray]:
+        """A basis as arrays, for an aerodynamic code of your own: x, y (standard-mesh nodes, m), shapes
+        [n_nodes, m] (out-of-plane displacement, m, +z up, in the basis' order), c_ref (m)."""
+        import io
+
+        content = self.request("GET", f"/bases/{int(basis_id)}/shapes.npz").content
+        with np.load(io.BytesIO(content)) as z:
+            return {k: z[k] for k in z.files}
+
+    def import_gaf(self, wing: WingRef, table: bytes | str | Path, label: str, *, mach: float | None = None,
+                   basis_id: int | None = None, n_lags: int | None = None, filename: str | None = None
+                   ) -> dict[str, Any]:
+        """Upload a GAF table computed on the basis shapes (NPZ: k, gaf_real, gaf_imag [nk, m, m], mach; or CSV
+        k,row,col,real,imag with ``mach``; bytes or a file path) as the ROM of solver ``external:<label>``;
+        returns the ROM. Flutter requests use it with ``solver="external:<label>"`` (docs: Your own GAF tables)."""
+        if isinstance(table, bytes):
+            data, name = table, filename or "table.npz"
+        else:
+            path = Path(table)
+            data, name = path.read_bytes(), filename or path.name
+        fields = {"label": str(label)}
+        if mach is not None:
+            fields["mach"] = repr(float(mach))
+        if basis_id is not None:
+            fields["basis_id"] = str(int(basis_id))
+        if n_lags is not None:
+            fields["n_lags"] = str(int(n_lags))
+        return self.request("POST", f"/wings/{self._ref(wing)}/roms/gaf", files={"file": (name, data)},
+                            data=fields).json()
 
     def train(self, wing: WingRef, machs: float | Sequence[float], *, timeout_s: float | None = None,
               progress: bool = True, **kw: Any) -> list[dict[str, Any]]:
