@@ -135,7 +135,7 @@ def train_command(
         "dt_star": getattr(rom, "dt_star", 0.0),  # 0: a continuous (rational-function) ROM
         "warnings": list(rom.warnings),
     }
-    if is_frequency_solver(rom.solver):
+    if _is_rfa(rom):
         report.update(kind="rfa", n_lags=rom.n_lags, fit_error_max=rom.max_fit_error, fit_error=rom.fit_error.tolist(),
                       k_max=float(rom.k_values[-1]), solver_seconds=round(float(rom.solver_seconds), 3))
     if getattr(rom, "mean_flow", None):
@@ -145,8 +145,8 @@ def train_command(
     if plot is not None:
         report["plots"] = _write_plots(plot, rom)
     if export_gaf is not None:
-        if not is_frequency_solver(rom.solver):
-            raise typer.BadParameter(f"a {rom.solver} ROM has no GAF table (an RFA ROM has: dlm, external)",
+        if not _is_rfa(rom):
+            raise typer.BadParameter(f"a {rom.solver} ARX ROM has no GAF table (a rational-function ROM has)",
                                      param_hint="--export-gaf")
         from romams_core.gaf_table import GafTable, gaf_npz
 
@@ -160,6 +160,13 @@ def train_command(
         typer.echo(f"warning: {msg}", err=True)
     typer.echo(f"rom {rom_id}: M = {rom.mach:g}, {rom.solver}, {rom.n_basis} basis shapes, {quality_line(rom)}, "
                f"trained in {sig(rom.train_seconds)} s (wall)")
+
+
+def _is_rfa(rom: Any) -> bool:
+    """True for a rational-function ROM (a GAF table fitted: the dlm's or an imported table's)."""
+    from romams_core.training_rfa import TrainedRfaRom
+
+    return isinstance(rom, TrainedRfaRom)
 
 
 def _import_gaf(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, path: Path, label: str | None,
@@ -189,7 +196,7 @@ def _write_plots(directory: Path, rom: Any) -> list[str]:
     from romams.plots.training import plot_signals, plot_validation, save
 
     directory.mkdir(parents=True, exist_ok=True)
-    if is_frequency_solver(rom.solver):
+    if _is_rfa(rom):
         from romams.plots.training import plot_rfa_fit
 
         path = directory / f"training_rfa_M{rom.mach:g}.png"

@@ -39,8 +39,8 @@ def is_external(name: str) -> bool:
 
 
 def is_frequency_solver(name: str) -> bool:
-    """True for a frequency-domain solver (trained by an RFA), an imported GAF table's included."""
-    return name in FREQUENCY_SOLVERS or is_external(name)
+    """True for a built-in frequency-domain solver (trained by an RFA)."""
+    return name in FREQUENCY_SOLVERS
 
 
 def available(name: str) -> bool:
@@ -88,9 +88,9 @@ def rom_identity(solver: str = DEFAULT_SOLVER, na: int = 8, nb: int = 8,
 
     For the TSD the wing's section (thickness form and t/c, ``section_options``) is part of the identity unless
     the options name it."""
-    if is_frequency_solver(solver):
-        na = nb = 0
-    opts = dict(options or {})
+    if is_frequency_solver(solver) or is_external(solver):
+        na = nb = 0  # an imported model is one per (wing, basis, Mach, label): importing again replaces it
+    opts = {} if is_external(solver) else dict(options or {})
     if solver == "tsd" and wing is not None:
         opts = {**section_options(wing), **opts}
     return {"solver": str(solver), "na": int(na), "nb": int(nb), "options": dict(sorted(opts.items()))}
