@@ -118,3 +118,39 @@ def test_gaf_table_export_import_and_flutter_with_the_imported_model(data_dir):
     assert len(st.roms.of_wing(wid)) == n_roms
     res = runner.invoke(app, ["flutter", "--baseline", "--mach", "0.79", "--solver", "external:copy"])
     assert res.exit_code == 2 and "--solver" in res.output and "import" in res.output
+
+
+def test_external_cfd_package_round_trip_from_the_cli(data_dir):
+    """``romams train --export-package`` -> the UVLM run as the external code on the package's files -> ``romams
+    train --gac FILE --label L --settings settings.json`` -> ``romams flutter --solver external:L``."""
+    import io
+    import zipfile
+
+    from romams_core.aero.uvlm import UvlmSolver
+    from romams_core.mesh import standard_mesh
+    from romams_core.wing import template
+
+    runner = CliRunner()
+    pkg = data_dir / "package.zip"
+    res = runner.invoke(app, ["train", "--mach", "0.6", "--na", "6", "--nb", "6", "--export-package", str(pkg)])
+    assert res.exit_code == 0, res.output
+    with zipfile.ZipFile(pkg) as z:
+        arrays = np.load(io.BytesIO(z.read("excitation.npz")))
+        (data_dir / "settings.json").write_bytes(z.read("settings.json"))
+    mesh = standard_mesh(template("cropped-delta").planform)
+    gac = UvlmSolver(refine=1).simulate(mesh, arrays["shapes"], arrays["signals"], 0.6, float(arrays["dt_star"]))
+    m = gac.shape[1]
+    (data_dir / "gac.csv").write_text(",".join(f"g_{j}" for j in range(m)) + "\n"
+                                      + "\n".join(",".join(repr(float(v)) for v in row) for row in gac) + "\n")
+    res = runner.invoke(app, ["train", "--gac", str(data_dir / "gac.csv"), "--label", "cfd", "--settings",
+                              str(data_dir / "settings.json"), "--json"])
+    assert res.exit_code == 0, res.output
+    rep = json.loads(res.stdout)
+    assert rep["solver"] == "external:cfd" and rep["mach"] == 0.6 and rep["na"] == 6
+    assert max(rep["validation_nrmse"]) < 0.02
+    res = runner.invoke(app, ["flutter", "--baseline", "--mach", "0.6", "--solver", "external:cfd", "--json"])
+    assert res.exit_code == 0, res.output
+    (r,) = json.loads(res.stdout)["results"]
+    assert r["solver"] == "external:cfd" and r["rom_id"] == rep["rom_id"] and r["flutter_found"]
+    res = runner.invoke(app, ["train", "--gac", str(data_dir / "gac.csv"), "--label", "cfd"])
+    assert res.exit_code == 2 and "--settings" in res.output

@@ -7,7 +7,7 @@ import io
 from typing import Any
 
 import numpy as np
-from fastapi import APIRouter, Depends, Request, Response
+from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
 from api.deps import Service, no_nul, require_key, service, wing_or_404
@@ -47,22 +47,35 @@ def _int_field(text: dict[str, str], key: str, lo: int, hi: int) -> int | None:
     return int(text[key])
 
 
-async def _read_form(request: Request) -> tuple[bytes, str, dict[str, str]]:
-    """(file bytes, file name, text fields) of the multipart upload (422 naming the field otherwise)."""
+def _mach_field(text: dict[str, str]) -> float:
+    """The Mach number text field, in [0, 1) (422 naming ``mach`` otherwise)."""
+    try:
+        mach = float(text["mach"])
+    except ValueError:
+        raise invalid("mach", f"must be a number, got {text['mach'][:20]!r}") from None
+    if not 0.0 <= mach < 1.0:
+        raise invalid("mach", f"must be in [0, 1), got {mach}")
+    return mach
+
+
+async def _read_form(request: Request, fields: tuple[str, ...] = TABLE_FIELDS, max_bytes: int = MAX_TABLE_BYTES
+                     ) -> tuple[bytes, str, dict[str, str]]:
+    """(file bytes (at most max_bytes + 1 read), file name, text fields) of a multipart upload of one file and
+    ``fields`` (422 naming the field otherwise)."""
     if not request.headers.get("content-type", "").lower().startswith("multipart/form-data"):
-        raise invalid("file", "send the table as multipart/form-data (fields file, label, mach, basis_id)")
-    form = await request.form(max_files=1, max_fields=len(TABLE_FIELDS))
+        raise invalid("file", f"send multipart/form-data (fields file, {', '.join(fields)})")
+    form = await request.form(max_files=1, max_fields=len(fields))
     try:
         upload = form.get("file")
         if upload is None or isinstance(upload, str):
             raise invalid("file", "missing: the table file (NPZ or CSV)")
         text = {k: v for k, v in form.multi_items() if k != "file"}
-        unknown = sorted(set(text) - set(TABLE_FIELDS))
+        unknown = sorted(set(text) - set(fields))
         if unknown:
-            raise invalid(unknown[0], f"not a field of a table upload; allowed: file, {', '.join(TABLE_FIELDS)}")
+            raise invalid(unknown[0], f"not a field of this upload; allowed: file, {', '.join(fields)}")
         if any(not isinstance(v, str) for v in text.values()):
             raise invalid(next(k for k, v in text.items() if not isinstance(v, str)), "must be a text field")
-        data = await upload.read(MAX_TABLE_BYTES + 1)
+        data = await upload.read(max_bytes + 1)
         return data, str(upload.filename or ""), {k: str(v) for k, v in text.items()}
     finally:
         await form.close()
@@ -99,14 +112,7 @@ async def import_gaf_table(wing: str, request: Request, svc: Service = Depends(s
     no_nul(text, "form")
     if "label" not in text:
         raise invalid("label", "missing: the table's name (its ROM's solver is external:<label>)")
-    mach = None
-    if text.get("mach"):
-        try:
-            mach = float(text["mach"])
-        except ValueError:
-            raise invalid("mach", f"must be a number, got {text['mach'][:20]!r}") from None
-        if not 0.0 <= mach < 1.0:
-            raise invalid("mach", f"must be in [0, 1), got {mach}")
+    mach = _mach_field(text) if text.get("mach") else None
     basis_id = resolve_basis_id(svc.store, wid, _int_field(text, "basis_id", 1, 2**53))
     n_lags = _int_field(text, "n_lags", 0, 12)
     table = parse_table(data, filename, mach)
@@ -115,3 +121,73 @@ async def import_gaf_table(wing: str, request: Request, svc: Service = Depends(s
     rom_id, _ = await run_in_threadpool(import_table, svc.store, wid, wdef, basis_id, basis, table, text["label"],
                                         **fit)
     return next(r for r in svc.store.roms.of_wing(wid, basis_id) if r["id"] == rom_id)
+
+
+#: the text fields of a GAC upload (besides the file ``file``)
+GAC_FIELDS = ("label", "mach", "basis_id", "settings")
+GAC_BODY = {"requestBody": {"required": True, "content": {"multipart/form-data": {"schema": {
+    "type": "object", "required": ["file", "label", "mach", "settings"], "additionalProperties": False,
+    "description": "the GAC time histories [2 n_steps, m] (m^3) an external CFD run computed for the excitation of "
+                   "GET /wings/{wing}/external-package: NPZ (array gac) or CSV (header g_0,...,g_{m-1})",
+    "properties": {
+        "file": {"type": "string", "format": "binary"},
+        "label": {"type": "string", "pattern": "^[A-Za-z0-9_.-]{1,40}$",
+                  "description": "a name: the ROM's solver is external:<label>"},
+        "mach": {"type": "number", "minimum": 0, "exclusiveMaximum": 1},
+        "basis_id": {"type": "integer", "minimum": 1, "description": "default: the package's (settings), else the "
+                                                                     "wing's active basis"},
+        "settings": {"type": "string", "description": "settings.json of the package, unchanged (JSON text)"}}}}}}}
+
+
+@router.get("/wings/{wing}/external-package", response_class=Response,
+            responses={**WING, 200: {"description": "zip: excitation.npz, excitation.csv, shapes.csv, settings.json, "
+                                                    "README.md", "content": {"application/zip": {
+                                                        "schema": {"type": "string", "format": "binary"}}}}})
+def external_package(wing: str, mach: float = Query(ge=0.0, lt=1.0), basis_id: int | None = Query(default=None, ge=1,
+                     le=2**53), na: int = Query(default=8, ge=1, le=40), nb: int = Query(default=8, ge=1, le=40),
+                     n_steps: int | None = Query(default=None, ge=16, le=200_000),
+                     seed: int = Query(default=0, ge=0, le=2**31), svc: Service = Depends(service)) -> Response:
+    """The training package of the wing's basis at one Mach for an external CFD code (the ROM-AMS paper's way):
+    the basis shapes on the standard mesh, the excitation (one continued run: training then validation half),
+    the settings to send back, and a README with the conventions (GAC, time, units)."""
+    from romams.services.external_cfd import export_package
+
+    wid, wdef = wing_or_404(svc, wing)
+    bid = resolve_basis_id(svc.store, wid, basis_id)
+    options: dict[str, Any] = {"na": na, "nb": nb, "seed": seed, **({} if n_steps is None else {"n_steps": n_steps})}
+    data, _ = export_package(wdef, bid, _basis_or_404(svc, bid), mach, options)
+    return Response(data, media_type="application/zip", headers={
+        "Content-Disposition": f'attachment; filename="romams_package_wing{wid}_basis{bid}_M{mach:g}.zip"'})
+
+
+@router.post("/wings/{wing}/roms/gac", status_code=201, dependencies=[Depends(require_key)],
+             responses={**WRITE, **WING, **problems(409, 413), **ok(RomOut, "the ROM identified from the GAC", 201)},
+             openapi_extra=GAC_BODY)
+async def import_gac_histories(wing: str, request: Request, svc: Service = Depends(service)) -> dict[str, Any]:
+    """Identify the ARX ROM of the GAC time histories an external CFD run computed for a training package, as for
+    a built-in solver, and store it as solver ``external:<label>`` (replacing an earlier one of that label and
+    Mach). A flutter request uses it with ``"solver": "external:<label>"``."""
+    import json
+
+    from romams.services.external_cfd import MAX_GAC_BYTES, import_gac, parse_gac
+
+    wid, wdef = wing_or_404(svc, wing)
+    data, filename, text = await _read_form(request, GAC_FIELDS, MAX_GAC_BYTES)
+    no_nul(text, "form")
+    for key in ("label", "mach", "settings"):
+        if key not in text:
+            raise invalid(key, "missing")
+    mach = _mach_field(text)
+    try:
+        settings = json.loads(text["settings"])
+    except ValueError:
+        raise invalid("settings", "must be the package's settings.json (JSON text)") from None
+    if not isinstance(settings, dict):
+        raise invalid("settings", "must be a JSON object")
+    given = _int_field(text, "basis_id", 1, 2**53) or settings.get("basis_id")
+    bid = resolve_basis_id(svc.store, wid, given if isinstance(given, int) else None)
+    gac = parse_gac(data, filename)
+    basis = _basis_or_404(svc, bid)
+    rom_id, _ = await run_in_threadpool(import_gac, svc.store, wid, wdef, bid, basis, mach, gac, text["label"],
+                                        {k: v for k, v in settings.items() if k != "basis_id"})
+    return next(r for r in svc.store.roms.of_wing(wid, bid) if r["id"] == rom_id)

@@ -54,6 +54,12 @@ def train_command(
                                     "shapes) as the ROM of solver external:LABEL instead of training one"),
     label: str | None = typer.Option(None, "--label", help="with --gaf: the table's name (solver external:LABEL)"),
     export_gaf: Path | None = typer.Option(None, "--export-gaf", help="write the ROM's GAF table (NPZ) here"),
+    export_package: Path | None = typer.Option(None, "--export-package", help="write the external-CFD training "
+                                               "package (zip: excitation, shapes, settings.json, README) of the "
+                                               "basis at --mach here, and train nothing"),
+    gac: Path | None = typer.Option(None, "--gac", help="identify the ROM of solver external:LABEL from the GAC "
+                                    "time histories (NPZ 'gac' or CSV) an external CFD run computed for a package"),
+    settings_file: Path | None = typer.Option(None, "--settings", help="with --gac: the package's settings.json"),
     as_json: bool = typer.Option(False, "--json", help="print one JSON object"),
     plot: Path | None = typer.Option(None, "--plot", help="write PNG figures (signals, validation) here"),
 ) -> None:
@@ -101,7 +107,12 @@ def train_command(
         basis_id, basis = ensure_basis(store, wing_id, w)  # says on stderr when it builds one
     except ValueError as exc:  # a planform-only wing: its basis comes from its modes (romams flutter --modes)
         raise typer.BadParameter(str(exc), param_hint="--wing") from None
-    if gaf is not None:
+    if export_package is not None:
+        _export_package(w, basis_id, basis, 0.87 if mach is None else mach, na, nb, n_steps, seed, export_package)
+        return
+    if gac is not None:
+        rom_id, rom = _import_gac(store, wing_id, w, basis_id, basis, gac, label, mach, settings_file)
+    elif gaf is not None:
         rom_id, rom = _import_gaf(store, wing_id, w, basis_id, basis, gaf, label, mach, options)
     else:
         mach = 0.87 if mach is None else mach
@@ -160,6 +171,57 @@ def train_command(
         typer.echo(f"warning: {msg}", err=True)
     typer.echo(f"rom {rom_id}: M = {rom.mach:g}, {rom.solver}, {rom.n_basis} basis shapes, {quality_line(rom)}, "
                f"trained in {sig(rom.train_seconds)} s (wall)")
+
+
+def _export_package(wing: Any, basis_id: int, basis: Any, mach: float, na: int, nb: int, n_steps: int | None,
+                    seed: int, path: Path) -> None:
+    """Write the external-CFD training package (``romams.services.external_cfd``) and say what it holds."""
+    from romams.services.external_cfd import export_package
+
+    opts: dict[str, Any] = {"na": na, "nb": nb, "seed": seed, **({} if n_steps is None else {"n_steps": n_steps})}
+    try:
+        data, settings = export_package(wing, basis_id, basis, mach, opts)
+    except ServiceError as exc:
+        raise typer.BadParameter(exc.reason, param_hint=f"--{str(exc.field).split('.')[-1].replace('_', '-')}"
+                                 ) from None
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data)
+    typer.echo(f"wrote {path}: basis {basis_id} ({basis.n_basis} shapes) at M {mach:g}, {2 * settings['n_steps']} "
+               f"samples of dt* {settings['dt_star']:g}; run it, then: romams train --gac FILE --label NAME "
+               f"--mach {mach:g} --settings settings.json")
+
+
+def _import_gac(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, path: Path, label: str | None,
+                mach: float | None, settings_file: Path | None) -> tuple[int, Any]:
+    """(rom_id, ROM) identified from an external run's GAC (``romams.services.external_cfd``)."""
+    from romams.services.external_cfd import import_gac, parse_gac
+
+    if label is None:
+        raise typer.BadParameter("the ROM needs a name: --label NAME (its solver is external:NAME)",
+                                 param_hint="--label")
+    if settings_file is None:
+        raise typer.BadParameter("give the package's settings.json", param_hint="--settings")
+    try:
+        settings = json.loads(settings_file.read_text())
+        data = path.read_bytes()
+    except (OSError, ValueError) as exc:
+        raise typer.BadParameter(f"cannot read: {exc}", param_hint="--gac/--settings") from None
+    if mach is None:
+        mach = settings.get("mach")
+    if not isinstance(settings, dict) or mach is None:
+        raise typer.BadParameter("settings.json must be the package's (with its mach)", param_hint="--settings")
+    hints = {"label": "--label", "mach": "--mach", "gac": "--gac", "file": "--gac"}
+    bid = int(settings.get("basis_id", basis_id))
+    try:
+        package_basis = basis if bid == basis_id else store.bases.load(bid)
+    except KeyError:
+        raise typer.BadParameter(f"basis {bid} of the package is not in this store", param_hint="--settings") from None
+    try:
+        return import_gac(store, wing_id, wing, bid, package_basis, float(mach), parse_gac(data, path.name), label,
+                          {k: v for k, v in settings.items() if k != "basis_id"})
+    except ServiceError as exc:
+        raise typer.BadParameter(exc.reason, param_hint=hints.get(str(exc.field), f"--settings ({exc.field})")
+                                 ) from None
 
 
 def _is_rfa(rom: Any) -> bool:

@@ -131,8 +131,10 @@ def parse_gac(data: bytes, filename: str = "") -> np.ndarray:
         except (ValueError, OSError, zipfile.BadZipFile) as exc:
             raise InvalidInput("file", f"not a readable NPZ file ({type(exc).__name__})") from None
     try:
-        text = data.decode("utf-8")
-        return np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
+        arr = np.loadtxt(io.StringIO(data.decode("utf-8")), delimiter=",", skiprows=1, ndmin=2)
+        if arr.size == 0:
+            raise ValueError("no numbers")
+        return arr
     except (UnicodeDecodeError, ValueError):
         raise InvalidInput("file", f"{filename or 'the file'}: neither an NPZ file nor a CSV of numbers under a "
                                    "header g_0,...") from None

@@ -103,3 +103,51 @@ def test_malformed_uploads_are_refused_and_store_nothing(svc, monkeypatch):
     monkeypatch.setattr(gi, "MAX_TABLE_BYTES", 1000)
     _problem(_upload(svc, gaf_npz(good), label="big"), 413, "file")
     assert svc.client.get(f"/api/v1/wings/{svc.wing_id}/roms").json() == before
+
+
+def test_external_cfd_package_and_gac_upload(svc):
+    """GET .../external-package, the UVLM run as the external code, POST .../roms/gac: a stored ARX ROM of solver
+    external:<label> that flutter requests use; bad uploads name the field and store nothing."""
+    import io
+    import zipfile
+
+    from romams_core.aero.uvlm import UvlmSolver
+    from romams_core.mesh import standard_mesh
+    from romams_core.wing import template
+
+    r = svc.client.get(f"/api/v1/wings/{svc.wing_id}/external-package", params={"mach": 0.79, "na": 6, "nb": 6})
+    assert r.status_code == 200 and r.headers["content-type"] == "application/zip", r.text
+    with zipfile.ZipFile(io.BytesIO(r.content)) as z:
+        arrays = np.load(io.BytesIO(z.read("excitation.npz")))
+        settings = z.read("settings.json").decode()
+    mesh = standard_mesh(template("cropped-delta").planform)
+    gac = UvlmSolver(refine=1).simulate(mesh, arrays["shapes"], arrays["signals"], 0.79, float(arrays["dt_star"]))
+    buf = io.BytesIO()
+    np.savez(buf, gac=gac)
+    url = f"/api/v1/wings/{svc.wing_id}/roms/gac"
+
+    def post(data: bytes = buf.getvalue(), **fields):
+        form = {"label": "uvlm-ext", "mach": "0.79", "settings": settings, **fields}
+        return svc.client.post(url, files={"file": ("gac.npz", data)}, data={k: v for k, v in form.items()
+                                                                              if v is not None})
+
+    before = svc.client.get(f"/api/v1/wings/{svc.wing_id}/roms").json()
+    bad_nan = io.BytesIO()
+    np.savez(bad_nan, gac=np.where(np.arange(gac.size).reshape(gac.shape) == 7, np.nan, gac))
+    short = io.BytesIO()
+    np.savez(short, gac=gac[:-2])
+    for resp, status, field in ((post(settings=None), 422, "settings"), (post(settings="[1]"), 422, "settings"),
+                                (post(mach="0.5"), 422, "mach"), (post(bad_nan.getvalue()), 422, "gac"),
+                                (post(short.getvalue()), 422, "gac"), (post(b"junk"), 422, "file"),
+                                (post(label="a b"), 422, "label")):
+        _problem(resp, status, field)
+    assert svc.client.get(f"/api/v1/wings/{svc.wing_id}/roms").json() == before
+    r = post()
+    assert r.status_code == 201, r.text
+    rom = r.json()
+    assert rom["solver"] == "external:uvlm-ext" and rom["mach"] == 0.79
+    assert max(rom["summary"]["validation_nrmse"]) < 0.02
+    out = svc.client.post(f"/api/v1/wings/{svc.wing_id}/flutter",
+                          json={"design": DESIGN, "machs": [0.79], "solver": "external:uvlm-ext", "store": False})
+    assert out.status_code == 200, out.text
+    assert out.json()["results"][0]["rom_id"] == rom["id"]
