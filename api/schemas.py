@@ -68,6 +68,16 @@ class BasisRequest(_Strict):
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
 
 
+class SnapshotBasisRequest(_Strict):
+    """A basis from uploaded mode sets (POST /modes ids): the first ``modes`` modes of each set are the snapshots."""
+
+    modes_ids: list[int] = Field(min_length=2, max_length=1000, description="ids of uploaded mode sets (POST /modes), "
+                                 "one per design of your design space")
+    modes: int = Field(default=4, ge=1, le=50, description="modes per set taken as snapshots (the lowest)")
+    mac_threshold: float = Field(default=0.9999, gt=0.0, lt=1.0, description="every snapshot must fit with MAC >= this")
+    max_basis: int = Field(default=12, ge=1, le=100)
+
+
 class JobRef(BaseModel):
     """A submitted job."""
 

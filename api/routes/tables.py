@@ -12,9 +12,10 @@ from fastapi.concurrency import run_in_threadpool
 
 from api.deps import Service, no_nul, require_key, service, wing_or_404
 from api.openapi import FOUND, READ, WING, WRITE, problems
-from api.problems import invalid
-from api.responses import RomOut, ok
+from api.problems import Problem, invalid
+from api.responses import BasisOut, RomOut, ok
 from api.routes.wings import _basis_or_404, _basis_wing
+from api.schemas import SnapshotBasisRequest
 from romams.services.gaf_import import MAX_TABLE_BYTES, import_table, parse_table
 from romams.services.models import resolve_basis_id
 
@@ -191,3 +192,27 @@ async def import_gac_histories(wing: str, request: Request, svc: Service = Depen
     rom_id, _ = await run_in_threadpool(import_gac, svc.store, wid, wdef, bid, basis, mach, gac, text["label"],
                                         {k: v for k, v in settings.items() if k != "basis_id"})
     return next(r for r in svc.store.roms.of_wing(wid, bid) if r["id"] == rom_id)
+
+
+@router.post("/wings/{wing}/basis/snapshots", status_code=201, dependencies=[Depends(require_key)],
+             responses={**WRITE, **WING, **ok(BasisOut, "the basis built from the uploaded mode sets", 201)})
+def snapshot_basis_route(wing: str, body: SnapshotBasisRequest, svc: Service = Depends(service)) -> dict[str, Any]:
+    """Build a PCA basis from mode sets you uploaded (POST /modes), one per design of a design space the service
+    cannot compute itself; it becomes the wing's active basis when the wing has none. New designs are then
+    evaluated from their uploaded modes (``modes_id``) against it, with the usual MAC checks."""
+    from romams.services.models import activate_first_basis
+    from romams.services.snapshot_basis import snapshot_basis
+
+    wid, wdef = wing_or_404(svc, wing)
+    sets = []
+    for i, mid in enumerate(body.modes_ids):
+        try:
+            sets.append(svc.store.modes.load(mid))
+        except KeyError:
+            raise Problem(404, f"modes_ids[{i}]: no uploaded modes {mid}", f"modes_ids[{i}]") from None
+    basis = snapshot_basis(wdef, sets, body.modes, body.mac_threshold, body.max_basis)
+    params = {"snapshots": list(body.modes_ids), "modes": body.modes, "mac_threshold": body.mac_threshold,
+              "max_basis": body.max_basis}
+    bid = svc.store.bases.save(wid, basis, params)
+    activate_first_basis(svc.store, wid, bid)
+    return next(b for b in svc.store.bases.of_wing(wid) if b["id"] == bid)
