@@ -103,13 +103,15 @@ class TrainedRfaRom:
         }
 
 
+#: root symmetries a lattice solver may model (romams_core.wing.SYMMETRIES)
+SYMMETRIES = ("symmetric", "antisymmetric", "none")
 #: Lattice refinements a DLM training may ask for (``lattice_refine``; the solver's default is 2).
 LATTICE_REFINES = (1, 2, 3, 4)
 
 
 def check_rfa_settings(k_values: Any = DEFAULT_K_VALUES, n_lags: Any = None, max_lags: Any = DEFAULT_MAX_LAGS,
                        fit_tol: Any = DEFAULT_TOL, reduce_order: Any = None,
-                       lattice_refine: Any = None) -> np.ndarray:
+                       lattice_refine: Any = None, symmetry: Any = None) -> np.ndarray:
     """Validated settings of :func:`train_rfa_rom` (InputError naming the setting); returns the k table.
 
     The one check of these settings: the training calls it before its solver runs, and the service before it
@@ -126,6 +128,8 @@ def check_rfa_settings(k_values: Any = DEFAULT_K_VALUES, n_lags: Any = None, max
     if lattice_refine is not None and (isinstance(lattice_refine, bool) or lattice_refine not in LATTICE_REFINES):
         raise InputError("lattice_refine", f"must be one of {', '.join(map(str, LATTICE_REFINES))} or None (the "
                          f"solver's default), got {lattice_refine!r}")
+    if symmetry is not None and symmetry not in SYMMETRIES:
+        raise InputError("symmetry", f"must be one of {', '.join(SYMMETRIES)} or None, got {symmetry!r}")
     return k
 
 
@@ -141,6 +145,7 @@ def train_rfa_rom(
     fit_tol: float = DEFAULT_TOL,
     reduce_order: int | str | None = None,
     lattice_refine: int | None = None,
+    symmetry: str | None = None,
     progress: ProgressFn | None = None,
 ) -> TrainedRfaRom:
     """GAF table of ``shapes`` [N, m] (m) by the frequency-domain ``solver`` at ``mach`` and its Roger RFA.
@@ -155,15 +160,19 @@ def train_rfa_rom(
     the solver's. 1 trains about 7x faster than the default 2 (cropped delta, 8 shapes, 16 k: 3 s against 20 s)
     at 8.5-9.4 % GAF error against the 4x lattice (2: 2.9-3.3 %): for smoke runs and tests of everything but
     the lattice's accuracy.
+    ``symmetry``: the root plane's (symmetric, antisymmetric, none: a free wing) for a solver that models it
+    (``DlmSolver.symmetry``); None keeps the solver's.
     ``progress(fraction, message)``
     follows the solver (90 %) and the fit; a ``Cancelled`` raised by it propagates.
     """
     t0 = time.perf_counter()
-    k = check_rfa_settings(k_values, n_lags, max_lags, fit_tol, reduce_order, lattice_refine)  # before the solver
-    if lattice_refine is not None:
-        if not hasattr(solver, "refine"):
-            raise InputError("lattice_refine", f"solver {solver.name!r} has no lattice refinement")
-        solver = dataclasses.replace(solver, refine=int(lattice_refine))
+    k = check_rfa_settings(k_values, n_lags, max_lags, fit_tol, reduce_order, lattice_refine, symmetry)
+    for key, value in (("refine", lattice_refine), ("symmetry", symmetry)):  # the solver's own settings
+        if value is not None:
+            if not hasattr(solver, key):
+                raise InputError("lattice_refine" if key == "refine" else key,
+                                 f"solver {solver.name!r} has no setting {key!r}")
+            solver = dataclasses.replace(solver, **{key: value})
 
     def solver_progress(frac: float, msg: str) -> None:
         if progress is not None:

@@ -26,9 +26,9 @@ from romams_core.validation import check_int, check_number
 
 THICKNESS_FORMS = ("constant", "naca4", "naca65a004")
 #: aerodynamic symmetry about the root (x-z) plane: a half wing mirrored symmetrically, antisymmetrically, or
-#: a free wing (no mirror); the solvers implement "symmetric" only so far
+#: a free wing (no mirror); the DLM models all three, the UVLM and the TSD the symmetric case only
 SYMMETRIES = ("symmetric", "antisymmetric", "none")
-SUPPORTED_SYMMETRIES = ("symmetric",)
+SUPPORTED_SYMMETRIES = SYMMETRIES
 BEAM_PLACEMENTS = ("mid-plane", "eccentric")
 
 

@@ -50,8 +50,16 @@ def test_wing_import_schema_and_flutter_with_op2_modes(data_dir):
 
 def test_cli_errors_name_the_option(data_dir):
     bdf, op2, _, _ = nd.stick_deck(data_dir, STICK, sym_xz=0)
-    res = _run("wing", "import", bdf)
-    assert res.exit_code == 2 and "--symmetry" in res.output and "'none'" in res.output
+    res = _run("wing", "import", bdf, "--name", "free", "--out", data_dir / "free.json")  # SYMXZ = 0: a free wing
+    assert res.exit_code == 0 and json.loads((data_dir / "free.json").read_text())["symmetry"] == "none"
+    free = ["flutter", "--wing", data_dir / "free.json", "--modes", op2, "--bdf", bdf, "--op2-modes", "3", "--mach",
+            "0.5"]
+    res = _run(*free, "--json")  # the dlm models the free wing (no mirror image at the root)
+    assert res.exit_code == 0, res.output
+    res = _run(*free, "--solver", "uvlm")
+    assert res.exit_code == 2 and "--solver" in res.output and "'none'" in res.output
+    res = _run("wing", "import", bdf, "--symmetry", "mirrored")
+    assert res.exit_code == 2 and "--symmetry" in res.output
     res = _run("wing", "import", bdf, "--symmetry", "symmetric", "--out", data_dir / "w.json")
     assert res.exit_code == 0, res.output
     wing = data_dir / "w.json"

@@ -288,3 +288,61 @@ def test_bad_input_names_the_field(kwargs, field):
     with pytest.raises(InputError) as exc:
         dlm.DlmSolver(refine=1).gaf(**args)
     assert exc.value.field == field
+
+
+@pytest.mark.parametrize("symmetry", ["symmetric", "antisymmetric", "none"])
+def test_root_symmetry_matches_an_explicit_full_span_lattice(symmetry):
+    """Half-wing DLM with a symmetric, antisymmetric or no mirror image (a free wing) against explicit lattices:
+    both halves of the full span solved together, the left half moving as the mirror (+) or anti-mirror (-) of the
+    right; for a free wing, the right half alone. Box pressures within 1e-10 of the largest, M 0.7, k 0 and 0.4."""
+    mesh = standard_mesh(Planform(root_chord=0.5, tip_chord=0.25, semispan=0.8, sweep_le=0.5, n_chord=4, n_span=6))
+    y = mesh.y / 0.8
+    shapes = np.column_stack([0.01 * y**2, 0.01 * y * (mesh.x - 0.25)])
+    system = dlm.build_dlm(mesh, 0.7, symmetry)
+    k_values = np.array([0.0, 0.4])
+    cp = system.pressures(shapes, k_values)  # [nk, K, m]
+    grid, full, n = system.grid, system.full, system.n_boxes
+    boxes = full if symmetry != "none" else grid
+    sign = {"symmetric": 1.0, "antisymmetric": -1.0, "none": None}[symmetry]
+    receivers = boxes["offset_j"]
+    steady = dlm.aic_rows(receivers, boxes, 0.7, None)
+    for a, k in enumerate(k_values):
+        aic = steady.astype(complex)
+        if k > 0:
+            aic = aic + dlm.aic_rows(receivers, boxes, 0.7, float(k) * grid["unit"] / system.b_ref)
+        w = system.wash(shapes, float(k))  # [K, m] on the right half
+        wash = w if sign is None else np.vstack([w, sign * w])  # the images' wash in the same box order
+        ref = np.linalg.solve(aic, wash)[:n]
+        assert np.abs(cp[a] - ref).max() <= 1e-10 * np.abs(ref).max()
+    if symmetry == "antisymmetric":  # and the answer is not the symmetric one
+        sym = dlm.build_dlm(mesh, 0.7, "symmetric").pressures(shapes, k_values)
+        assert np.abs(sym - cp).max() > 0.05 * np.abs(sym).max()
+    with pytest.raises(InputError) as e:
+        dlm.build_dlm(mesh, 0.7, "mirrored")
+    assert e.value.field == "symmetry"
+
+
+def test_wing_symmetry_reaches_the_dlm_training_and_other_solvers_refuse_it():
+    """A wing's root symmetry is part of a dlm ROM's identity and reaches its lattice; the uvlm and the tsd, which
+    solve the symmetric half wing only, refuse such a wing naming ``solver``."""
+    import dataclasses
+
+    from romams.services.errors import InvalidInput
+    from romams.services.training import rom_identity, train
+    from romams_core.wing import template
+
+    wing = dataclasses.replace(template("cropped-delta"), symmetry="antisymmetric")
+    mesh = standard_mesh(wing.planform)
+    ident = rom_identity("dlm", wing=wing)
+    assert ident["options"] == {"symmetry": "antisymmetric"}
+    assert "symmetry" not in rom_identity("dlm", wing=template("cropped-delta"))["options"]
+    fast = {**ident, "options": {**ident["options"], "lattice_refine": 1, "k_values": [0.0, 0.1, 0.3, 0.6]}}
+    shapes = np.column_stack([0.01 * (mesh.y / wing.planform.semispan) ** 2])
+    rom = train(mesh, shapes, 0.5, fast)
+    assert "root antisymmetric" in rom.solver_description
+    sym = train(mesh, shapes, 0.5, {**fast, "options": {**fast["options"], "symmetry": "symmetric"}})
+    assert abs(rom.gaf[2, 0, 0] - sym.gaf[2, 0, 0]) > 0.05 * abs(sym.gaf[2, 0, 0])  # the image loads it otherwise
+    for solver in ("uvlm", "tsd"):
+        with pytest.raises(InvalidInput) as e:
+            rom_identity(solver, wing=wing)
+        assert e.value.field == "solver"

@@ -159,7 +159,10 @@ def flutter_command(
         raise typer.BadParameter(f"unknown or unavailable solver {solver!r}; one of "
                                  f"{', '.join(x for x in SOLVERS if available(x))} or external:LABEL (an imported "
                                  "GAF table)", param_hint="--solver")
-    ident = rom_identity(solver, na, nb, wing=w)
+    try:
+        ident = rom_identity(solver, na, nb, wing=w)
+    except ServiceError as exc:
+        raise typer.BadParameter(exc.reason, param_hint="--solver") from None
     try:
         models = cli_models(store, wing_id, w, machs, ident, basis_id=basis_id, samples=samples, modes=n_modes,
                             mac_threshold=mac, external=external, bar=lambda what: progress_bar(err, what))

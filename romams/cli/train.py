@@ -116,8 +116,8 @@ def train_command(
         rom_id, rom = _import_gaf(store, wing_id, w, basis_id, basis, gaf, label, mach, options)
     else:
         mach = 0.87 if mach is None else mach
-        ident = rom_identity(solver, na, nb, options, wing=w)
         try:
+            ident = rom_identity(solver, na, nb, options, wing=w)
             check_options(solver, ident["options"], basis.n_basis)
         except ServiceError as exc:
             raise typer.BadParameter(exc.reason, param_hint=exc.field or "--solver") from None

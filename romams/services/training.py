@@ -87,12 +87,21 @@ def rom_identity(solver: str = DEFAULT_SOLVER, na: int = 8, nb: int = 8,
     """Identity of a trained ROM besides (wing, basis, Mach): the same dict the HTTP API stores.
 
     For the TSD the wing's section (thickness form and t/c, ``section_options``) is part of the identity unless
-    the options name it."""
+    the options name it; for the DLM a root symmetry other than symmetric (antisymmetric, or none: a free wing)
+    is. Another solver on such a wing is InvalidInput naming ``solver``."""
     if is_frequency_solver(solver) or is_external(solver):
         na = nb = 0  # an imported model is one per (wing, basis, Mach, label): importing again replaces it
     opts = {} if is_external(solver) else dict(options or {})
     if solver == "tsd" and wing is not None:
         opts = {**section_options(wing), **opts}
+    symmetry = getattr(wing, "symmetry", "symmetric") if wing is not None else "symmetric"
+    if symmetry != "symmetric" and not is_external(solver):
+        if solver != "dlm":
+            from romams.services.errors import InvalidInput
+
+            raise InvalidInput("solver", f"the wing is {symmetry!r} about its root; only the dlm models that "
+                                         f"(the {solver} solves the symmetric half wing)")
+        opts = {**opts, "symmetry": symmetry}
     return {"solver": str(solver), "na": int(na), "nb": int(nb), "options": dict(sorted(opts.items()))}
 
 

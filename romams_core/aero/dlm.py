@@ -41,6 +41,7 @@ from romams_core.aero.protocol import (
     mach_warnings,
 )
 from romams_core.aero.uvlm import _interp_matrix, refine_mesh
+from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
 
 __all__ = [
@@ -159,12 +160,13 @@ class DlmSystem:
     b_ref: float  # reference semichord c_ref / 2 (m)
     grid: dict[str, Any] = field(repr=False)  # half-wing aerogrid (grid units of grid["unit"] m)
     full: dict[str, Any] = field(repr=False)  # explicitly mirrored full lattice (grid units)
-    steady: np.ndarray = field(repr=False)  # [K, K] symmetric steady AIC D_RR + D_RL (VLM part)
+    steady: np.ndarray = field(repr=False)  # [K, K] steady AIC D_RR + sign D_RL (VLM part)
     interp_colloc: sp.csr_matrix = field(repr=False)  # [K, N] shape value at collocation points
     ddx_colloc: sp.csr_matrix = field(repr=False)  # [K, N] d/dx of the shape at collocation points (1/m)
     interp_load: sp.csr_matrix = field(repr=False)  # [K, N] shape value at load points (1/4-chord midpoints)
 
-    key: tuple[Any, ...] = ()  # lattice fingerprint and Mach: the key of the factorized-AIC cache
+    key: tuple[Any, ...] = ()  # lattice fingerprint, Mach and symmetry: the key of the factorized-AIC cache
+    image_sign: float = 1.0  # the mirror image's loading: +1 symmetric, -1 antisymmetric, 0 none (a free wing)
 
     @property
     def n_boxes(self) -> int:
@@ -189,12 +191,13 @@ class DlmSystem:
         return np.asarray(self.grid["A"]) * self.grid["unit"] ** 2
 
     def symmetric(self, rows: np.ndarray) -> np.ndarray:
-        """Symmetric-loading AIC [K, K] from full-lattice rows [K, 2K]: each box plus its mirror image."""
+        """AIC [K, K] of the wing's symmetry from full-lattice rows [K, 2K]: each box plus ``image_sign`` times its
+        mirror image (symmetric: the same loading on the image; antisymmetric: the opposite; none: no image)."""
         k = self.n_boxes
-        return rows[:, :k] + rows[:, k:]
+        return rows[:, :k] + self.image_sign * rows[:, k:]
 
     def aic(self, k: float) -> np.ndarray:
-        """Symmetric AIC D_sym(k) [K, K] (normal velocity / V per unit cp) at reduced frequency k on b_ref."""
+        """AIC D(k) [K, K] (normal velocity / V per unit cp) at reduced frequency k on b_ref, of the symmetry."""
         if k == 0.0:
             return self.steady.astype(complex)
         unsteady = aic_rows(self.grid["offset_j"], self.full, self.mach, float(k) * self.grid["unit"] / self.b_ref)
@@ -231,18 +234,31 @@ def _fingerprint(mesh: StandardMesh) -> tuple[Any, ...]:
     return (mesh.n_chord, mesh.n_span, hashlib.sha1(xy.tobytes()).hexdigest())
 
 
-def build_dlm(mesh: StandardMesh, mach: float) -> DlmSystem:
-    """Assemble the DLM of ``mesh`` (one box per panel, no refinement) at subsonic ``mach``; steady AIC included.
+#: the mirror image's loading sign of each root symmetry (romams_core.wing.SYMMETRIES)
+IMAGE_SIGN = {"symmetric": 1.0, "antisymmetric": -1.0, "none": 0.0}
+
+
+def image_sign(symmetry: str) -> float:
+    """+1, -1 or 0 for a symmetric, antisymmetric or free (no mirror) wing (InputError naming ``symmetry``)."""
+    if symmetry not in IMAGE_SIGN:
+        raise InputError("symmetry", f"must be one of {tuple(IMAGE_SIGN)}, got {symmetry!r}")
+    return IMAGE_SIGN[symmetry]
+
+
+def build_dlm(mesh: StandardMesh, mach: float, symmetry: str = "symmetric") -> DlmSystem:
+    """Assemble the DLM of ``mesh`` (one box per panel, no refinement) at subsonic ``mach`` for the root
+    ``symmetry`` (symmetric, antisymmetric, or none: a free wing); steady AIC included.
 
     Systems of the same lattice and Mach are cached (``SYSTEM_CACHE_SIZE``), and so are the factorized AICs of
     each reduced frequency (``LU_CACHE_SIZE``, about 5 MB each on the default cropped-delta lattice): a second set
     of shapes on the same wing and Mach (ROM-PMS, the full-order p-k) costs only the solves.
     """
     mach = check_mach(mach, upper=1.0)
-    key = (*_fingerprint(mesh), mach)
+    sign = image_sign(symmetry)
+    key = (*_fingerprint(mesh), mach, sign)
     cached = _SYSTEM_CACHE.pop(key, None)
     if cached is None:
-        cached = _build_dlm(mesh, mach)
+        cached = _build_dlm(mesh, mach, sign)
         cached.key = key
     _SYSTEM_CACHE[key] = cached
     while len(_SYSTEM_CACHE) > SYSTEM_CACHE_SIZE:
@@ -250,8 +266,8 @@ def build_dlm(mesh: StandardMesh, mach: float) -> DlmSystem:
     return cached
 
 
-def _build_dlm(mesh: StandardMesh, mach: float) -> DlmSystem:
-    """Assemble the DLM of ``mesh`` at ``mach`` (no cache)."""
+def _build_dlm(mesh: StandardMesh, mach: float, sign: float = 1.0) -> DlmSystem:
+    """Assemble the DLM of ``mesh`` at ``mach`` with mirror-image loading ``sign`` (no cache)."""
     grid = build_aerogrid(mesh)
     full = mirror_aerogrid(grid)
     n = grid["n"]
@@ -262,10 +278,11 @@ def _build_dlm(mesh: StandardMesh, mach: float) -> DlmSystem:
         b_ref=0.5 * mesh.c_ref,
         grid=grid,
         full=full,
-        steady=steady_rows[:, :n] + steady_rows[:, n:],
+        steady=steady_rows[:, :n] + sign * steady_rows[:, n:],
         interp_colloc=_interp_matrix(mesh, s_c, t, derivative=False),
         ddx_colloc=_interp_matrix(mesh, s_c, t, derivative=True),
         interp_load=_interp_matrix(mesh, s_l, t, derivative=False),
+        image_sign=float(sign),
     )
 
 
@@ -276,6 +293,7 @@ def frequency_response(
     k_values: np.ndarray,
     refine: int = 2,
     progress: ProgressFn | None = None,
+    symmetry: str = "symmetric",
 ) -> np.ndarray:
     """DLM GAC H [nk, m, m] (m^3; H[k, i, j] = f_i per unit u_j) of shapes [N, m] (m) at k = omega c_ref / (2 V).
 
@@ -287,7 +305,7 @@ def frequency_response(
     lattice, interp = refine_mesh(mesh, refine)
     if progress is not None:
         progress(0.0, "assembling the steady DLM (VLM) influence coefficients")
-    system = build_dlm(lattice, mach)
+    system = build_dlm(lattice, mach, symmetry)
     return system.gaf(np.asarray(interp @ shapes), k_values, progress)
 
 
@@ -303,6 +321,7 @@ class DlmSolver:
 
     refine: int = 2
     name: str = "dlm"
+    symmetry: str = "symmetric"  # of the root plane: symmetric, antisymmetric or none (a free wing)
 
     def info(self, mach: float) -> SolverInfo:
         """Solver description and the warnings for results at ``mach``."""
@@ -310,7 +329,8 @@ class DlmSolver:
             name=self.name,
             description=(
                 f"subsonic doublet-lattice method (panelaero: steady VLM plus Rodden parabolic DLM increment), "
-                f"lattice refined {self.refine}x, root symmetry by an explicitly mirrored lattice"
+                f"lattice refined {self.refine}x, root {self.symmetry} "
+                + ("(no mirror image: a free wing)" if self.symmetry == "none" else "by an explicitly mirrored lattice")
             ),
             warnings=mach_warnings(float(mach)),
         )
@@ -324,4 +344,5 @@ class DlmSolver:
         progress: ProgressFn | None = None,
     ) -> np.ndarray:
         """Complex GAC H [nk, m, m] (m^3) of shapes [N, m] (m) at k = omega c_ref / (2 V); M < 1 only."""
-        return frequency_response(mesh, shapes, mach, k_values, refine=self.refine, progress=progress)
+        return frequency_response(mesh, shapes, mach, k_values, refine=self.refine, progress=progress,
+                                  symmetry=self.symmetry)

@@ -212,7 +212,7 @@ def wing_from_bdf(bdf_path: PathLike, name: str | None = None, *, units: str = "
                   n_chord: int | None = None, n_span: int | None = None, confine: bool = False) -> WingDefinition:
     """A planform-only WingDefinition from a deck's CAERO1 / AERO(S) cards (modes then come from its OP2).
 
-    ``symmetry`` overrides the deck's (e.g. "symmetric" to analyse the symmetric case of a free-wing deck)."""
+    ``symmetry`` overrides the deck's (e.g. "symmetric" to analyse the symmetric case of an antisymmetric deck)."""
     from pathlib import Path
 
     path = Path(bdf_path)
@@ -221,12 +221,9 @@ def wing_from_bdf(bdf_path: PathLike, name: str | None = None, *, units: str = "
     zeta, damping_note = modal_damping(model)
     if damping_note:
         dp.notes.append(damping_note)
-    sym = symmetry or dp.symmetry
-    if sym not in SUPPORTED_SYMMETRIES and symmetry is None:
-        raise InputError("symmetry", f"the deck's AERO/AEROS card asks for {dp.symmetry!r} symmetry "
-                                     "(SYMXZ); the aerodynamic solvers model a half wing mirrored "
-                                     "symmetrically at the root only (free-wing and antisymmetric solutions are a "
-                                     "later step). Give symmetry 'symmetric' to import it for the symmetric case")
+    sym = symmetry or dp.symmetry  # the deck's AERO/AEROS SYMXZ; the DLM models all three (the UVLM/TSD: symmetric)
+    if sym not in SUPPORTED_SYMMETRIES:
+        raise InputError("symmetry", f"must be one of {', '.join(SUPPORTED_SYMMETRIES)}, got {sym!r}")
     notes = "; ".join(dp.notes)
     return WingDefinition(
         name=name or path.stem, planform=dp.planform, structure=None, symmetry=sym, origin=dp.origin,

@@ -114,12 +114,14 @@ def test_bad_deck_uploads(client, deck):
     problem(client.post("/api/v1/wings", files=both, data={"n_span": "0"}), 422, "n_span")
     problem(client.post("/api/v1/wings", files=both, data={"units": "furlong"}), 422, "units")
     anti_files = [("bdf", ("main.bdf", deck["main"])), ("bdf", ("aero.bdf", deck["anti"]))]
-    problem(client.post("/api/v1/wings", files=anti_files), 422, "symmetry", "antisymmetric")
+    r = client.post("/api/v1/wings", files=anti_files, data={"name": "anti"})  # the deck's SYMXZ = -1
+    assert r.status_code == 201 and client.get("/api/v1/wings/anti").json()["definition"]["symmetry"] == \
+        "antisymmetric", r.text
     r = client.post("/api/v1/wings", files=anti_files, data={"symmetry": "symmetric", "name": "anti-as-sym"})
     assert r.status_code == 201, r.text
     problem(client.post("/api/v1/wings", files=anti_files, data={"symmetry": "symmetric", "name": "anti-as-sym"}),
             409, "name", "already exists")
-    assert [w["name"] for w in client.get("/api/v1/wings").json()] == ["anti-as-sym"]
+    assert [w["name"] for w in client.get("/api/v1/wings").json()] == ["anti", "anti-as-sym"]
 
 
 def test_planform_only_json_definition(client):
@@ -128,8 +130,10 @@ def test_planform_only_json_definition(client):
     r = client.post("/api/v1/wings", json={"definition": d})
     assert r.status_code == 201, r.text
     problem(client.post("/api/v1/wings/bare/basis", json={"samples": 4}), 422, "wing", "planform-only")
-    problem(client.post("/api/v1/wings", json={"definition": {**d, "name": "free", "symmetry": "none"}}), 422,
-            "definition.symmetry", "not supported yet")
+    assert client.post("/api/v1/wings", json={"definition": {**d, "name": "free", "symmetry": "none"}}
+                       ).status_code == 201  # a free wing (the dlm models it)
+    problem(client.post("/api/v1/wings", json={"definition": {**d, "name": "m", "symmetry": "mirrored"}}), 422,
+            "definition.symmetry", "must be one of")
     problem(client.post("/api/v1/wings", json={"definition": {**d, "name": "o", "origin": [1, 2]}}), 422,
             "definition.origin")
 
