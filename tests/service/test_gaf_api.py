@@ -141,6 +141,13 @@ def test_external_cfd_package_and_gac_upload(svc):
                                 (post(short.getvalue()), 422, "gac"), (post(b"junk"), 422, "file"),
                                 (post(label="a b"), 422, "label")):
         _problem(resp, status, field)
+    import romams.services.external_cfd as ext
+
+    saved, ext.MAX_GAC_BYTES = ext.MAX_GAC_BYTES, 1000
+    try:
+        _problem(post(), 413, "file")  # oversized
+    finally:
+        ext.MAX_GAC_BYTES = saved
     assert svc.client.get(f"/api/v1/wings/{svc.wing_id}/roms").json() == before
     r = post()
     assert r.status_code == 201, r.text
