@@ -47,3 +47,40 @@ def test_basis_command_rejects_bad_input(data_dir):
     assert res.exit_code == 2 and "unknown template" in res.output
     res = runner.invoke(app, ["basis", "--mac", "1.0", "--no-store", "--samples", "2"])
     assert res.exit_code == 2 and "--mac" in res.output
+
+
+def test_basis_from_user_mode_sets(tmp_path, monkeypatch):
+    """``romams basis --snapshots F1 F2 ...``: the basis of the user's mode sets equals the built-in LHS basis of
+    the same designs (1e-9); a set with too few modes is a usage error naming --snapshots."""
+    import numpy as np
+
+    from romams.persistence import open_store
+    from romams.settings import get_settings
+    from romams_core.basis import build_basis_for_wing, sample_designs
+    from romams_core.mesh import standard_mesh
+    from romams_core.structure.modal import modal_analysis
+    from romams_core.wing import template
+
+    monkeypatch.setenv("ROMAMS_DATA_DIR", str(tmp_path / "data"))
+    get_settings.cache_clear()
+    wing = template("cropped-delta")
+    mesh = standard_mesh(wing.planform)
+    files = []
+    for i, x in enumerate(sample_designs(wing, 8, seed=0)):
+        m = modal_analysis(wing, x, 3, mesh)
+        files.append(tmp_path / f"design{i}.npz")
+        np.savez(files[-1], nodes=np.column_stack([mesh.x, mesh.y, np.zeros(mesh.n_nodes)]), shapes=m.shapes,
+                 frequencies_hz=m.frequencies_hz, generalized_masses=np.ones(3))
+    args = ["basis", "--modes", "3", "--mac", "0.999", "--json", *[a for f in files for a in ("--snapshots", str(f))]]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 0, res.output
+    rep = json.loads(res.stdout)
+    mine = open_store().bases.load(rep["basis_id"])
+    ref = build_basis_for_wing(wing, samples=8, modes=3, mac_threshold=0.999, seed=0)
+    assert mine.n_basis == ref.n_basis == rep["n_basis"] and rep["samples"] == 8
+    signs = np.sign(np.sum(mine.shapes * ref.shapes, axis=0))
+    np.testing.assert_allclose(mine.shapes * signs, ref.shapes, atol=1e-9 * np.abs(ref.shapes).max())
+    bad = CliRunner().invoke(app, ["basis", "--modes", "5", "--snapshots", str(files[0]), "--snapshots",
+                                   str(files[1])])
+    assert bad.exit_code == 2 and "--snapshots" in bad.output and "design0.npz" in bad.output
+    get_settings.cache_clear()

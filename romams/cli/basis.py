@@ -78,18 +78,25 @@ def basis_command(
     store: bool = typer.Option(True, "--store/--no-store", help="save the basis in the local store"),
     activate: bool = typer.Option(False, "--activate", help="make it the wing's active basis (the first basis of a "
                                                            "wing becomes active anyway; a later one only with this)"),
+    snapshots: list[Path] | None = typer.Option(None, "--snapshots", help="build the basis from these mode sets "
+                                                "(JSON/NPZ files, one per design of your own design space; repeat) "
+                                                "instead of sampling the built-in structure"),
 ) -> None:
     """Build the PCA basis of mode shapes for a wing and report its fit (MAC) on samples and hold-out designs."""
     if not 0.0 < mac < 1.0:
         raise typer.BadParameter("must be in (0, 1)", param_hint="--mac")
     w = _resolve_wing(wing, store)
     t0 = time.perf_counter()
-    try:
-        with progress_bar(console(), f"modal analyses of {samples} samples") as bar:
-            basis = build_basis_for_wing(w, samples=samples, modes=modes, mac_threshold=mac, max_basis=max_basis,
-                                         seed=seed, progress=bar)
-    except ValueError as exc:
-        raise typer.BadParameter(str(exc)) from None
+    if snapshots:
+        basis = _snapshot_basis(w, snapshots, modes, mac, max_basis)
+        samples, holdout = len(snapshots), 0  # no design space of ours to draw hold-out designs from
+    else:
+        try:
+            with progress_bar(console(), f"modal analyses of {samples} samples") as bar:
+                basis = build_basis_for_wing(w, samples=samples, modes=modes, mac_threshold=mac,
+                                             max_basis=max_basis, seed=seed, progress=bar)
+        except ValueError as exc:
+            raise typer.BadParameter(str(exc)) from None
     t_build = time.perf_counter() - t0
     report: dict[str, Any] = {
         "wing": getattr(w, "name", wing),
@@ -123,7 +130,11 @@ def basis_command(
     if store:
         from romams.persistence import open_store
 
-        params = {"samples": samples, "modes": modes, "mac_threshold": mac, "max_basis": max_basis, "seed": seed}
+        params: dict[str, Any] = {"samples": samples, "modes": modes, "mac_threshold": mac, "max_basis": max_basis,
+                                  "seed": seed}
+        if snapshots:
+            params = {"snapshots": [p.name for p in snapshots], "modes": modes, "mac_threshold": mac,
+                      "max_basis": max_basis}
         with open_store().unit_of_work() as uow:  # stored and (if asked, or first) activated together
             wing_id = uow.wings.ensure(w)
             report["wing_id"] = wing_id
@@ -149,6 +160,21 @@ def basis_command(
         typer.echo(f"hold-out: {holdout} designs, worst MAC per mode {per_mode}")
     if "basis_id" in report:
         typer.echo(f"stored as basis {report['basis_id']} of wing {report['wing_id']}")
+
+
+def _snapshot_basis(wing: Any, files: list[Path], modes: int, mac: float, max_basis: int) -> Basis:
+    """Basis of the user's mode sets (``romams.services.snapshot_basis``), usage errors naming --snapshots."""
+    from romams.cli.flutter import external_modes
+    from romams.services.errors import ServiceError
+    from romams.services.snapshot_basis import snapshot_basis
+
+    sets = [external_modes(f, None) for f in files]
+    try:
+        return snapshot_basis(wing, sets, modes, mac, max_basis, field="--snapshots")
+    except ServiceError as exc:
+        i = str(exc.field).partition("[")[2].rstrip("]")
+        where = f" ({files[int(i)].name})" if i.isdigit() else ""
+        raise typer.BadParameter(exc.reason + where, param_hint="--snapshots") from None
 
 
 def _write_plots(directory: Path, wing: Any, basis: Basis, hold_shapes: list[np.ndarray]) -> list[str]:
