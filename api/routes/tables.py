@@ -141,7 +141,7 @@ GAC_BODY = {"requestBody": {"required": True, "content": {"multipart/form-data":
 
 
 @router.get("/wings/{wing}/external-package", response_class=Response,
-            responses={**WING, 200: {"description": "zip: excitation.npz, excitation.csv, shapes.csv, settings.json, "
+            responses={**WING, **problems(409), 200: {"description": "zip: excitation.npz, excitation.csv, shapes.csv, settings.json, "
                                                     "README.md", "content": {"application/zip": {
                                                         "schema": {"type": "string", "format": "binary"}}}}})
 def external_package(wing: str, mach: float = Query(ge=0.0, lt=1.0), basis_id: int | None = Query(default=None, ge=1,
