@@ -140,10 +140,12 @@ GAC_BODY = {"requestBody": {"required": True, "content": {"multipart/form-data":
         "settings": {"type": "string", "description": "settings.json of the package, unchanged (JSON text)"}}}}}}}
 
 
+PACKAGE = {200: {"description": "zip: excitation.npz, excitation.csv, shapes.csv, settings.json, README.md",
+                 "content": {"application/zip": {"schema": {"type": "string", "format": "binary"}}}}}
+
+
 @router.get("/wings/{wing}/external-package", response_class=Response,
-            responses={**WING, **problems(409), 200: {"description": "zip: excitation.npz, excitation.csv, shapes.csv, settings.json, "
-                                                    "README.md", "content": {"application/zip": {
-                                                        "schema": {"type": "string", "format": "binary"}}}}})
+            responses={**WING, **problems(409), **PACKAGE})
 def external_package(wing: str, mach: float = Query(ge=0.0, lt=1.0), basis_id: int | None = Query(default=None, ge=1,
                      le=2**53), na: int = Query(default=8, ge=1, le=40), nb: int = Query(default=8, ge=1, le=40),
                      n_steps: int | None = Query(default=None, ge=16, le=200_000),
