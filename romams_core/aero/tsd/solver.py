@@ -299,6 +299,11 @@ class TsdSolver:
                        for i, (f, r) in enumerate(zip(flows, records, strict=True))]
             try:
                 shared.watch(futures)
+                wait(futures)  # the others stop at their next report once one failed
+                errors = [e for e in (f.exception() for f in futures) if e is not None]
+                real = [e for e in errors if not isinstance(e, Cancelled)]
+                if errors:
+                    raise (real or errors)[0]  # the record that failed, not one stopped because of it
                 return [fut.result() for fut in futures]
             finally:
                 shared.stop.set()  # the other records stop at their next report when one fails or is cancelled
