@@ -144,6 +144,27 @@ def test_records_side_by_side_equal_separate_runs_and_cancel_together():
     assert "record" in calls[-1]  # the threads' steps were reported; no record ran its 4000 steps
 
 
+def test_a_failing_record_reports_its_own_error(monkeypatch):
+    """Records marched side by side: when one fails, its error is raised (the other, stopped because of it, raises
+    Cancelled, which must not hide the cause)."""
+    from romams_core.aero.tsd import solver as tsd_solver
+
+    mesh = standard_mesh(AGARD_LIKE)
+    spec = GridSpec(n_chord=16, n_upstream=6, n_downstream=8, n_span=6, n_outboard=4, n_z=10, dz0=0.04)
+    shapes = np.column_stack([0.01 * (mesh.y / AGARD_LIKE.semispan) ** 2])
+    run = tsd_solver._March.run
+
+    def failing(self, flow, signals, report):
+        if signals.shape[0] == 30:  # the second record fails at once; the first runs on
+            raise RuntimeError("TSD unsteady run diverged at step 1 (test)")
+        return run(self, flow, signals, report)
+
+    monkeypatch.setattr(tsd_solver._March, "run", failing)
+    records = [np.zeros((4000, 1)), np.zeros((30, 1))]
+    with pytest.raises(RuntimeError, match="diverged at step 1"):
+        TsdSolver(grid=spec, record_threads=2).simulate_records(mesh, shapes, records, 0.8, 0.1)
+
+
 def _harmonic_gaf(solver: TsdSolver, mesh, shapes: np.ndarray, mach: float, k: float) -> np.ndarray:
     """First-harmonic GAC matrix [m, m] of the TSD at reduced frequency k (3 cycles, the last analysed)."""
     dts, om = 0.1, 2.0 * k
