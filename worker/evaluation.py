@@ -159,10 +159,11 @@ def flutter_chunk(job_id: str) -> None:
         result = {"index": p["index"], "results": out}
         if p.get("run_id") is None:
             return result
-        fill_best(job, designs, out, full)
+        rows = [compact_row(d, s, p["run_settings"], job["parent_id"]) for d, s in zip(designs, out, strict=True)]
+        fill_best(job, designs, rows, full)
 
         def save(uow: UnitOfWork) -> dict[str, Any]:
-            save_run_chunk(uow, job, keys, out, full)
+            save_run_chunk(uow, job, keys, out, full, rows)
             return result
 
         return store_and_finish(store(), job_id, save)  # stored only while the chunk is not cancelled
@@ -173,35 +174,37 @@ def flutter_chunk(job_id: str) -> None:
         assemble_batch(job["parent_id"])
 
 
-def fill_best(job: dict[str, Any], designs: list[Any], summaries: list[Any], full: list[Any]) -> None:
-    """The full result (V-g data) of the chunk's best feasible design when it beats its run's best so far but was
-    answered from the result cache (which keeps summaries only): evaluated again, into ``full``."""
-    p = job["params"]
-    rows = [compact_row(d, s, p["run_settings"]) for d, s in zip(designs, summaries, strict=True)]
+def chunk_best(rows: list[dict[str, Any]], best: float | None) -> int | None:
+    """Index of the chunk's best feasible design when it beats the run's best objective ``best`` (None: no run best
+    yet), else None."""
     cands = [i for i, r in enumerate(rows) if r["feasible"]]
     if not cands:
-        return
+        return None
     i = min(cands, key=lambda k: rows[k]["objective"])
-    best = store().runs.best_objective(int(p["run_id"]))
-    if full[i] is None and (best is None or rows[i]["objective"] < best):
+    return i if best is None or rows[i]["objective"] < best else None
+
+
+def fill_best(job: dict[str, Any], designs: list[Any], rows: list[dict[str, Any]], full: list[Any]) -> None:
+    """The full result (V-g data) of the chunk's new best design (``chunk_best``) when it was answered from the
+    result cache (which keeps summaries only): evaluated again, into ``full``."""
+    p = job["params"]
+    i = chunk_best(rows, store().runs.best_objective(int(p["run_id"])))
+    if i is not None and full[i] is None:
         models = models_for(job["wing_id"], p["basis_id"], p["rom_ids"])
         ((_, full[i]),) = evaluate_designs(models, [designs[i]], condition=condition_of(p), cache=OBJECTS.get_or_load)
 
 
 def save_run_chunk(uow: UnitOfWork, job: dict[str, Any], keys: list[str], summaries: list[Any],
-                   full: list[Any]) -> None:
-    """Store a chunk's designs as compact evaluations of its run (one INSERT); V-g data (an evaluation row) only
-    for the designs asked for (``keep_vg``) and for the chunk's best feasible design when it beats the run's best."""
+                   full: list[Any], rows: list[dict[str, Any]]) -> None:
+    """Store a chunk's designs (their compact ``rows``) as evaluations of its run (one INSERT); V-g data (an
+    evaluation row) only for the designs asked for (``keep_vg``) and for the chunk's new best (``chunk_best``)."""
     p = job["params"]
     run_id, designs = int(p["run_id"]), p["designs"]
-    rows = [compact_row(d, s, p["run_settings"], job["parent_id"]) for d, s in zip(designs, summaries, strict=True)]
+    rows = [dict(r) for r in rows]  # this transaction's own copies (it may be run again)
     keep = {i for i, r in enumerate(full) if r is not None} if p.get("keep_vg") else set()
-    best = uow.runs.best_objective(run_id)
-    cands = [i for i, r in enumerate(rows) if r["feasible"]]
-    if cands:  # the chunk's best (its full result filled in by fill_best when it came from the result cache)
-        i = min(cands, key=lambda k: rows[k]["objective"])
-        if full[i] is not None and (best is None or rows[i]["objective"] < best):
-            keep.add(i)
+    i = chunk_best(rows, uow.runs.best_objective(run_id))
+    if i is not None and full[i] is not None:  # filled in by fill_best when it came from the result cache
+        keep.add(i)
     for i in sorted(keep):
         rows[i]["evaluation_id"] = uow.evaluations.save(
             job["wing_id"], full[i], summary=summaries[i], request={"design": designs[i], "run_id": run_id},
@@ -234,4 +237,4 @@ def batch_finalize(job_id: str) -> None:
 
 
 __all__ = ["JobFailed", "Outcome", "assemble_batch", "evaluate", "evaluate_pms", "flutter_chunk", "flutter_job",
-           "flutter_pms_job", "fill_best", "save_run_chunk"]
+           "flutter_pms_job", "chunk_best", "fill_best", "save_run_chunk"]
