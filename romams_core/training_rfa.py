@@ -30,6 +30,7 @@ from romams_core.rfa import (
     fit_rfa,
 )
 from romams_core.statespace import ContinuousSS
+from romams_core.wing import SYMMETRIES
 
 #: Default table of reduced frequencies (on the semichord): dense where the lag terms bend, to k = 2.
 DEFAULT_K_VALUES = (0.0, 0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.65, 0.8, 1.0, 1.25, 1.5, 1.75, 2.0)
@@ -103,8 +104,6 @@ class TrainedRfaRom:
         }
 
 
-#: root symmetries a lattice solver may model (romams_core.wing.SYMMETRIES)
-SYMMETRIES = ("symmetric", "antisymmetric", "none")
 #: Lattice refinements a DLM training may ask for (``lattice_refine``; the solver's default is 2).
 LATTICE_REFINES = (1, 2, 3, 4)
 

@@ -28,7 +28,6 @@ THICKNESS_FORMS = ("constant", "naca4", "naca65a004")
 #: aerodynamic symmetry about the root (x-z) plane: a half wing mirrored symmetrically, antisymmetrically, or
 #: a free wing (no mirror); the DLM models all three, the UVLM and the TSD the symmetric case only
 SYMMETRIES = ("symmetric", "antisymmetric", "none")
-SUPPORTED_SYMMETRIES = SYMMETRIES
 BEAM_PLACEMENTS = ("mid-plane", "eccentric")
 
 
@@ -306,10 +305,6 @@ class WingDefinition:
         """Validate symmetry, origin and reference chord."""
         if self.symmetry not in SYMMETRIES:
             raise InputError("symmetry", f"must be one of {SYMMETRIES}, got {self.symmetry!r}")
-        if self.symmetry not in SUPPORTED_SYMMETRIES:
-            raise InputError("symmetry", f"{self.symmetry!r} is not supported yet: the aerodynamic solvers model a "
-                                         "half wing mirrored symmetrically at the root only (free-wing and "
-                                         "antisymmetric solutions are a later step)")
         try:
             origin = tuple(float(v) for v in self.origin)
         except (TypeError, ValueError):

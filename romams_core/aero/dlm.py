@@ -43,6 +43,7 @@ from romams_core.aero.protocol import (
 from romams_core.aero.uvlm import _interp_matrix, refine_mesh
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
+from romams_core.wing import SYMMETRIES
 
 __all__ = [
     "DlmSystem",
@@ -234,8 +235,8 @@ def _fingerprint(mesh: StandardMesh) -> tuple[Any, ...]:
     return (mesh.n_chord, mesh.n_span, hashlib.sha1(xy.tobytes()).hexdigest())
 
 
-#: the mirror image's loading sign of each root symmetry (romams_core.wing.SYMMETRIES)
-IMAGE_SIGN = {"symmetric": 1.0, "antisymmetric": -1.0, "none": 0.0}
+#: the mirror image's loading sign of each root symmetry: symmetric +1, antisymmetric -1, none (a free wing) 0
+IMAGE_SIGN = dict(zip(SYMMETRIES, (1.0, -1.0, 0.0), strict=True))
 
 
 def image_sign(symmetry: str) -> float:

@@ -22,7 +22,7 @@ from romams_core.errors import InputError
 from romams_core.mesh import Planform
 from romams_core.nastran.deck import PathLike, coord_rotation, read_bdf
 from romams_core.nastran.op2 import UNIT_SYSTEMS, NastranOptions
-from romams_core.wing import SUPPORTED_SYMMETRIES, WingDefinition
+from romams_core.wing import WingDefinition
 
 _SYMXZ = {1: "symmetric", -1: "antisymmetric", 0: "none"}
 _MAX_BOXES = 200
@@ -221,9 +221,7 @@ def wing_from_bdf(bdf_path: PathLike, name: str | None = None, *, units: str = "
     zeta, damping_note = modal_damping(model)
     if damping_note:
         dp.notes.append(damping_note)
-    sym = symmetry or dp.symmetry  # the deck's AERO/AEROS SYMXZ; the DLM models all three (the UVLM/TSD: symmetric)
-    if sym not in SUPPORTED_SYMMETRIES:
-        raise InputError("symmetry", f"must be one of {', '.join(SUPPORTED_SYMMETRIES)}, got {sym!r}")
+    sym = symmetry or dp.symmetry  # the deck's AERO/AEROS SYMXZ (checked by WingDefinition)
     notes = "; ".join(dp.notes)
     return WingDefinition(
         name=name or path.stem, planform=dp.planform, structure=None, symmetry=sym, origin=dp.origin,
