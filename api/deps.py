@@ -90,6 +90,16 @@ def no_nul(value: Any, field: str) -> Any:
     return value
 
 
+def form_int(text: dict[str, str], key: str, lo: int, hi: int) -> int | None:
+    """An optional integer text field of a multipart form, in [lo, hi] (None when absent or empty; 422 naming it
+    otherwise)."""
+    if not text.get(key):
+        return None
+    if not text[key].isdigit() or not lo <= int(text[key]) <= hi:
+        raise invalid(key, f"must be an integer in [{lo}, {hi}], got {text[key][:20]!r}")
+    return int(text[key])
+
+
 def wing_or_404(svc: Service, wing_ref: str) -> tuple[int, Any]:
     """(id, WingDefinition) by id or name, else 404 naming the wing (a found wing is cached: wings are immutable).
     An id beyond the id columns' range, or a name longer than a stored one can be, is not looked up: 404."""

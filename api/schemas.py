@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, FiniteFloat, model_validator
 
 from romams.persistence import ID_MAX, ID_MIN, JobStatus
+from romams.services.gaf_import import LABEL
 
 Design = dict[str, FiniteFloat] | list[FiniteFloat]
 
@@ -147,7 +148,7 @@ SOLVER_CHOICE = ("aerodynamic solver whose ROMs to use: dlm, uvlm, tsd, or exter
                  "(ROMs of several solvers may be trained for one Mach; default: the dlm ROM where one is trained, "
                  "else the newest ROM of that Mach)")
 #: a solver whose ROMs an evaluation uses: a built-in one or an imported table's
-EvalSolver = Annotated[str, Field(pattern=r"^(dlm|uvlm|tsd|external:[A-Za-z0-9_.-]{1,40})$", max_length=49)]
+EvalSolver = Annotated[str, Field(pattern=f"^(dlm|uvlm|tsd|external:{LABEL.pattern})$", max_length=49)]
 
 
 class FlutterRequest(FlightFields):

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from romams_core.aero.protocol import ProgressFn, SolverInfo, check_k_values
+from romams_core.aero.protocol import ProgressFn, SolverInfo, check_k_values, check_mach
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
 
@@ -49,12 +49,7 @@ class GafTable:
 def check_table(mach: Any, k_values: Any, gaf: Any) -> GafTable:
     """A validated table (InputError naming ``mach``, ``k_values`` or ``gaf``): 0 <= M < 1, k as the RFA needs
     (finite, >= 0, strictly ascending, at least 4), H [nk, m, m] finite with nk = len(k)."""
-    try:
-        m = float(mach)
-    except (TypeError, ValueError):
-        raise InputError("mach", f"must be a number, got {mach!r}") from None
-    if not (np.isfinite(m) and 0.0 <= m < 1.0):
-        raise InputError("mach", f"must be in [0, 1) (a subsonic table), got {mach!r}")
+    m = check_mach(mach, upper=1.0)
     k = check_k_values(k_values)
     if k.size < 4:
         raise InputError("k_values", f"need at least 4 reduced frequencies for the RFA, got {k.size}")

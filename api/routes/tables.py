@@ -10,14 +10,15 @@ import numpy as np
 from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
-from api.deps import Service, no_nul, require_key, service, wing_or_404
+from api.deps import Service, form_int, no_nul, require_key, service, wing_or_404
 from api.openapi import FOUND, READ, WING, WRITE, problems
 from api.problems import Problem, invalid
 from api.responses import BasisOut, RomOut, ok
 from api.routes.wings import _basis_or_404, _basis_wing
 from api.schemas import SnapshotBasisRequest
-from romams.services.gaf_import import MAX_TABLE_BYTES, import_table, parse_table
+from romams.services.gaf_import import LABEL, MAX_TABLE_BYTES, import_table, parse_table
 from romams.services.models import resolve_basis_id
+from romams_core.aero.protocol import check_mach
 
 router = APIRouter(tags=["wings"], responses=READ)
 
@@ -30,7 +31,7 @@ TABLE_BODY = {"requestBody": {"required": True, "content": {"multipart/form-data
                    "header k,row,col,real,imag (then mach is required)",
     "properties": {
         "file": {"type": "string", "format": "binary"},
-        "label": {"type": "string", "pattern": "^[A-Za-z0-9_.-]{1,40}$",
+        "label": {"type": "string", "pattern": f"^{LABEL.pattern}$",
                   "description": "the table's name: its ROM's solver is external:<label>"},
         "mach": {"type": "number", "minimum": 0, "exclusiveMaximum": 1,
                  "description": "the Mach number (required for a CSV table; an NPZ table carries its own)"},
@@ -39,24 +40,12 @@ TABLE_BODY = {"requestBody": {"required": True, "content": {"multipart/form-data
                    "description": "RFA lag roots (default: automatic, as for the DLM)"}}}}}}}
 
 
-def _int_field(text: dict[str, str], key: str, lo: int, hi: int) -> int | None:
-    """An optional integer text field in [lo, hi] (422 naming it otherwise)."""
-    if not text.get(key):
-        return None
-    if not text[key].isdigit() or not lo <= int(text[key]) <= hi:
-        raise invalid(key, f"must be an integer in [{lo}, {hi}], got {text[key][:20]!r}")
-    return int(text[key])
-
-
 def _mach_field(text: dict[str, str]) -> float:
-    """The Mach number text field, in [0, 1) (422 naming ``mach`` otherwise)."""
+    """The Mach number text field, in [0, 1) (``check_mach``; 422 naming ``mach`` otherwise)."""
     try:
-        mach = float(text["mach"])
-    except ValueError:
-        raise invalid("mach", f"must be a number, got {text['mach'][:20]!r}") from None
-    if not 0.0 <= mach < 1.0:
-        raise invalid("mach", f"must be in [0, 1), got {mach}")
-    return mach
+        return check_mach(float(text["mach"]), upper=1.0)
+    except ValueError as exc:  # not a number, or out of range (an InputError)
+        raise invalid("mach", getattr(exc, "reason", f"must be a number, got {text['mach'][:20]!r}")) from None
 
 
 async def _read_form(request: Request, fields: tuple[str, ...] = TABLE_FIELDS, max_bytes: int = MAX_TABLE_BYTES
@@ -114,8 +103,8 @@ async def import_gaf_table(wing: str, request: Request, svc: Service = Depends(s
     if "label" not in text:
         raise invalid("label", "missing: the table's name (its ROM's solver is external:<label>)")
     mach = _mach_field(text) if text.get("mach") else None
-    basis_id = resolve_basis_id(svc.store, wid, _int_field(text, "basis_id", 1, 2**53))
-    n_lags = _int_field(text, "n_lags", 0, 12)
+    basis_id = resolve_basis_id(svc.store, wid, form_int(text, "basis_id", 1, 2**53))
+    n_lags = form_int(text, "n_lags", 0, 12)
     table = parse_table(data, filename, mach)
     basis = svc.store.bases.load(basis_id)
     fit = {} if n_lags is None else {"n_lags": n_lags}
@@ -132,7 +121,7 @@ GAC_BODY = {"requestBody": {"required": True, "content": {"multipart/form-data":
                    "GET /wings/{wing}/external-package: NPZ (array gac) or CSV (header g_0,...,g_{m-1})",
     "properties": {
         "file": {"type": "string", "format": "binary"},
-        "label": {"type": "string", "pattern": "^[A-Za-z0-9_.-]{1,40}$",
+        "label": {"type": "string", "pattern": f"^{LABEL.pattern}$",
                   "description": "a name: the ROM's solver is external:<label>"},
         "mach": {"type": "number", "minimum": 0, "exclusiveMaximum": 1},
         "basis_id": {"type": "integer", "minimum": 1, "description": "default: the package's (settings), else the "
@@ -187,7 +176,7 @@ async def import_gac_histories(wing: str, request: Request, svc: Service = Depen
         raise invalid("settings", "must be the package's settings.json (JSON text)") from None
     if not isinstance(settings, dict):
         raise invalid("settings", "must be a JSON object")
-    given = _int_field(text, "basis_id", 1, 2**53) or settings.get("basis_id")
+    given = form_int(text, "basis_id", 1, 2**53) or settings.get("basis_id")
     bid = resolve_basis_id(svc.store, wid, given if isinstance(given, int) else None)
     gac = parse_gac(data, filename)
     basis = _basis_or_404(svc, bid)

@@ -14,7 +14,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
 
-from api.deps import WING_NAME_MAX, Service, no_nul, require_key, service, wing_or_404
+from api.deps import WING_NAME_MAX, Service, form_int, no_nul, require_key, service, wing_or_404
 from api.openapi import FOUND, IMAGE, READ, WING, WRITE, problems
 from api.plot_cache import NOT_MODIFIED, plot_response
 from api.problems import Problem, from_value_error, invalid
@@ -123,12 +123,7 @@ async def _wing_from_form(form: Any, svc: Service) -> tuple[Any, str | None]:
     if len(text) != len(fields):
         raise invalid(next(k for k in fields if k not in text), "must be a text field, not a file")
     no_nul(text, "form")
-    ints = {}
-    for key in ("n_chord", "n_span"):
-        if text.get(key):
-            if not text[key].isdigit() or not 1 <= int(text[key]) <= 200:
-                raise invalid(key, f"must be an integer in [1, 200], got {text[key][:20]!r}")
-            ints[key] = int(text[key])
+    ints = {key: n for key in ("n_chord", "n_span") if (n := form_int(text, key, 1, 200)) is not None}
     name = text.get("name") or None
     if name is not None and not 1 <= len(name) <= WING_NAME_MAX:
         raise invalid("name", f"1..{WING_NAME_MAX} characters")

@@ -20,6 +20,7 @@ import numpy as np
 from romams.services.errors import InvalidInput, PayloadTooLarge
 from romams.services.gaf_import import external_solver_name
 from romams.services.training import rom_identity
+from romams_core.aero.protocol import check_mach
 from romams_core.errors import InputError
 from romams_core.external_cfd import RecordedSolver, check_gac, excitation, signal_settings
 from romams_core.mesh import standard_mesh
@@ -59,6 +60,14 @@ sample). Upload it with a label of your choosing: the ROM is stored as solver ex
 """
 
 
+def _mach(mach: Any) -> float:
+    """A subsonic Mach number (``check_mach``; InvalidInput naming ``mach``)."""
+    try:
+        return check_mach(mach, upper=1.0)
+    except InputError as exc:
+        raise InvalidInput("mach", exc.reason) from None
+
+
 def package_settings(mesh: Any, n_shapes: int, options: dict[str, Any] | None = None) -> dict[str, Any]:
     """The settings of a package: ``options`` (n_steps, dt_star, k_max, seed, displacement_fraction, na, nb) with
     ``train_rom``'s defaults filled in; InvalidInput naming an unknown or invalid setting."""
@@ -81,8 +90,7 @@ def package_settings(mesh: Any, n_shapes: int, options: dict[str, Any] | None = 
 def export_package(wing: Any, basis_id: int, basis: Any, mach: float, options: dict[str, Any] | None = None
                    ) -> tuple[bytes, dict[str, Any]]:
     """(zip bytes, settings) of the training package of ``basis`` at ``mach``."""
-    if not 0.0 <= float(mach) < 1.0:
-        raise InvalidInput("mach", f"must be in [0, 1), got {mach!r}")
+    mach = _mach(mach)
     mesh = standard_mesh(wing.planform)
     settings = package_settings(mesh, basis.n_basis, options)
     settings["mach"] = float(mach)
@@ -147,8 +155,7 @@ def import_gac(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, m
     from romams_core.training import TrainingError, train_rom
 
     name = external_solver_name(label)
-    if not 0.0 <= float(mach) < 1.0:
-        raise InvalidInput("mach", f"must be in [0, 1), got {mach!r}")
+    mach = _mach(mach)
     given = (options or {}).get("mach")
     if given is not None and abs(float(given) - float(mach)) > 1e-9:
         raise InvalidInput("mach", f"the package was made for M {given}, the upload says {mach}")
