@@ -164,14 +164,16 @@ def train_shape_sets(mesh: StandardMesh, shape_sets: Sequence[np.ndarray], machs
     machs[j], trained in parallel processes. With a frequency-domain solver one process trains every set of a
     Mach, so its per-process cache of factorized AICs (one per Mach and reduced frequency) is built once per Mach;
     a time-domain solver's runs share nothing, so every (set, Mach) is a task of its own."""
-    if processes == 1 and progress is not None:  # in this process: the solvers' own progress, task by task
-        n = len(shape_sets) * len(machs)
+    if processes == 1:  # in this process, Mach by Mach (the AIC cache's order), with the solvers' own progress
+        n, out = len(shape_sets) * len(machs), [[None] * len(machs) for _ in shape_sets]
 
-        def part(k: int) -> Progress:
-            return lambda frac, msg: progress((k + frac) / n, msg)
+        def part(k: int) -> Progress | None:
+            return None if progress is None else (lambda frac, msg: progress((k + frac) / n, msg))
 
-        return [[train(mesh, shapes, float(m), ident, progress=part(i * len(machs) + j))
-                 for j, m in enumerate(machs)] for i, shapes in enumerate(shape_sets)]
+        for j, m in enumerate(machs):
+            for i, shapes in enumerate(shape_sets):
+                out[i][j] = train(mesh, shapes, float(m), ident, progress=part(j * len(shape_sets) + i))
+        return out
     if is_frequency_solver(str(ident.get("solver", ""))):
         groups = [(mesh, list(shape_sets), float(m), dict(ident)) for m in machs]
         by_mach = parallel_map(_train_group, groups, processes, progress)
