@@ -110,10 +110,15 @@ def train_command(
     if export_package is not None:
         _export_package(w, basis_id, basis, 0.87 if mach is None else mach, na, nb, n_steps, seed, export_package)
         return
-    if gac is not None:
-        rom_id, rom = _import_gac(store, wing_id, w, basis_id, basis, gac, label, mach, settings_file)
-    elif gaf is not None:
-        rom_id, rom = _import_gaf(store, wing_id, w, basis_id, basis, gaf, label, mach, options)
+    if gac is not None or gaf is not None:  # an imported model
+        if label is None:
+            raise typer.BadParameter("an imported model needs a name: --label NAME (its solver is external:NAME)",
+                                     param_hint="--label")
+        if gac is not None:
+            rom_id, rom = _import_gac(store, wing_id, w, basis_id, basis, gac, label, mach, settings_file)
+        else:
+            assert gaf is not None
+            rom_id, rom = _import_gaf(store, wing_id, w, basis_id, basis, gaf, label, mach, options)
     else:
         mach = 0.87 if mach is None else mach
         try:
@@ -191,14 +196,11 @@ def _export_package(wing: Any, basis_id: int, basis: Any, mach: float, na: int, 
                f"--mach {mach:g} --settings settings.json")
 
 
-def _import_gac(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, path: Path, label: str | None,
+def _import_gac(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, path: Path, label: str,
                 mach: float | None, settings_file: Path | None) -> tuple[int, Any]:
     """(rom_id, ROM) identified from an external run's GAC (``romams.services.external_cfd``)."""
     from romams.services.external_cfd import import_gac, parse_gac
 
-    if label is None:
-        raise typer.BadParameter("the ROM needs a name: --label NAME (its solver is external:NAME)",
-                                 param_hint="--label")
     if settings_file is None:
         raise typer.BadParameter("give the package's settings.json", param_hint="--settings")
     try:
@@ -206,7 +208,7 @@ def _import_gac(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, 
         data = path.read_bytes()
     except (OSError, ValueError) as exc:
         raise typer.BadParameter(f"cannot read: {exc}", param_hint="--gac/--settings") from None
-    if mach is None:
+    if isinstance(settings, dict) and mach is None:
         mach = settings.get("mach")
     if not isinstance(settings, dict) or mach is None:
         raise typer.BadParameter("settings.json must be the package's (with its mach)", param_hint="--settings")
@@ -231,14 +233,11 @@ def _is_rfa(rom: Any) -> bool:
     return isinstance(rom, TrainedRfaRom)
 
 
-def _import_gaf(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, path: Path, label: str | None,
+def _import_gaf(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, path: Path, label: str,
                 mach: float | None, options: dict[str, Any]) -> tuple[int, Any]:
     """(rom_id, ROM) of an imported GAF table (``romams.services.gaf_import``), usage errors naming the option."""
     from romams.services.gaf_import import import_table, parse_table
 
-    if label is None:
-        raise typer.BadParameter("a GAF table needs a name: --label NAME (its solver is external:NAME)",
-                                 param_hint="--label")
     fit = {k: v for k, v in options.items() if k in ("n_lags", "reduce_order")}
     extra = sorted(set(options) - set(fit))
     if extra:
