@@ -45,10 +45,13 @@ def serve(
     import uvicorn
 
     from romams.persistence import open_store
+    from romams.services.queue import declare_queues
     from romams.settings import get_settings
 
     settings = get_settings()
     open_store(settings)  # creates the data dir and migrates SQLite before the workers start
+    if worker:  # the broker's tables and queues exist before the API and the workers first touch them together
+        declare_queues(settings)
     n = concurrency or settings.worker_concurrency
     plan = ([("training", max(1, n // 2), "training@%h"), ("evaluation", n, "evaluation@%h")] if split_queues
             else [("training,evaluation", n, "embedded@%h")])

@@ -100,3 +100,13 @@ def make_celery(settings: Settings | None = None, include: list[str] | None = No
     celery = Celery("romams", include=include or [], task_cls=task_cls)
     celery.conf.update(celery_config(settings))
     return celery
+
+
+def declare_queues(settings: Settings | None = None) -> None:
+    """Declare the service's queues on the broker once (for the embedded SQLite broker this creates its tables and
+    queue rows), so that processes starting together do not race to create them."""
+    celery = make_celery(settings)
+    with celery.connection_for_write() as conn:
+        channel = conn.default_channel
+        for queue in celery.conf.task_queues:
+            queue(channel).declare()

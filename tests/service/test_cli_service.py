@@ -31,3 +31,18 @@ def test_worker_and_serve_help(tmp_path):
     for cmd in ("worker", "serve"):
         r = _romams([cmd, "--help"], service_env(tmp_path))
         assert r.returncode == 0 and "--concurrency" in r.stdout
+
+
+def test_declare_queues_creates_the_embedded_broker_queues_once(tmp_path):
+    """`romams serve` declares the queues before its workers start (no create-table race among 3 processes)."""
+    import sqlite3
+
+    from romams.services.queue import declare_queues
+    from romams.settings import Settings
+
+    settings = Settings(data_dir=tmp_path)
+    declare_queues(settings)
+    declare_queues(settings)  # idempotent: a restart finds them there
+    with sqlite3.connect(tmp_path / "broker.db") as db:
+        names = sorted(r[0] for r in db.execute("select name from kombu_queue"))
+    assert names == ["evaluation", "training"]

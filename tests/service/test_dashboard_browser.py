@@ -20,7 +20,9 @@ def test_dashboard_shows_a_job_reaching_100_percent(server):
         page.goto(f"{base}/dashboard")
         assert page.title() == "romams dashboard"
         wid = httpx.post(f"{base}/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
-        job_id = httpx.post(f"{base}/api/v1/wings/{wid}/basis", json={"samples": 60, "modes": 3}).json()["job_id"]
+        r = httpx.post(f"{base}/api/v1/wings/{wid}/basis", json={"samples": 60, "modes": 3})
+        assert r.status_code == 202, (r.text, (tmp / "serve.log").read_text()[-3000:])
+        job_id = r.json()["job_id"]
         row = f'tr[data-job="{job_id}"]'
         page.wait_for_selector(row, timeout=15_000)  # the poller shows the new job without a reload
         seen = set()
