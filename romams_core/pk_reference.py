@@ -35,7 +35,7 @@ def uvlm_table(
     refined lattice, ``solver.wake_chords``; the system is assembled and factorized once (one K x K complex
     solve per k). ``derivative`` "exact" (du/dt* = i omega* u) or "bdf2" (the march's sampled derivative).
     """
-    from romams_core.aero.uvlm import UvlmSolver, build_uvlm, frequency_response, refine_mesh
+    from romams_core.aero.uvlm import UvlmSolver, frequency_response, refine_mesh
 
     if not (math.isfinite(k_max) and k_max > 0):
         raise InputError("k_max", f"must be finite and > 0, got {k_max!r}")
@@ -45,12 +45,11 @@ def uvlm_table(
     r = int(solver.refine)
     lattice, interp = refine_mesh(mesh, r)
     lattice_shapes = np.asarray(interp @ np.asarray(shapes, dtype=float))
-    system = build_uvlm(lattice, mach, 1.0 / lattice.n_chord, wake_chords=solver.wake_chords,
-                        tip_inset=solver.tip_inset)
+    system = solver.build(lattice, mach, 1.0 / lattice.n_chord)  # the solver's wake, tip inset and root symmetry
     k = np.linspace(0.0, float(k_max), int(n_k))
     h = frequency_response(lattice, lattice_shapes, mach, k, derivative=derivative, system=system)
     desc = (f"UVLM frequency response, lattice refined {r}x, dt* {system.dt_star:g}, wake {solver.wake_chords:g} "
-            f"chords, derivative {derivative}")
+            f"chords, derivative {derivative}, root {getattr(solver, 'symmetry', 'symmetric')}")
     return AeroTable(k=k, h=h, mach=float(mach), description=desc)
 
 

@@ -8,6 +8,7 @@ dimensionless orthonormal basis shapes).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -22,6 +23,7 @@ from romams_core.aero.protocol import (
     check_dt_star,
     check_mach,
     check_shapes,
+    image_sign,
 )
 from romams_core.arx import ArxModel, arx_simulate, fit_arx, nrmse
 from romams_core.errors import InputError
@@ -135,6 +137,7 @@ def train_rom(
     progress: ProgressFn | None = None,
     displacement_fraction: float = 0.01,
     order_fallbacks: tuple[tuple[int, int], ...] = (),
+    symmetry: str | None = None,
 ) -> TrainedRom:
     """Identify an ARX ROM of ``solver`` for shapes [N, m] (m) at ``mach``; one solver run trains and validates.
 
@@ -151,9 +154,12 @@ def train_rom(
     (falls back to the full model). The reduced model must meet nrmse_tol too. Default dt_star = 1 / n_chord.
     ``order_fallbacks``: further (na, nb) tried in turn on the same records when (na, nb) misses nrmse_tol; the
     first that meets it is kept (with a note), else the error names the best one.
+    ``symmetry``: the root plane's (symmetric, antisymmetric, none: a free wing) for a solver that models it
+    (``UvlmSolver.symmetry``); None keeps the solver's.
     """
     t_start = time.perf_counter()
     mach = check_mach(mach)
+    solver = with_symmetry(solver, symmetry)
     shapes = check_shapes(mesh, shapes)
     dt_star = check_dt_star(1.0 / mesh.n_chord if dt_star is None else dt_star)
     if not (math.isfinite(nrmse_tol) and nrmse_tol > 0):
@@ -241,6 +247,17 @@ def train_rom(
         solver_seconds=solver_seconds,
         ar_ridge=float(fit.ar_ridge),
     )
+
+
+def with_symmetry(solver: UnsteadySolver, symmetry: str | None) -> UnsteadySolver:
+    """``solver`` with its root ``symmetry`` replaced (None: unchanged); InputError naming ``symmetry`` without one."""
+    if symmetry is None:
+        return solver
+    image_sign(symmetry)  # InputError naming symmetry for an unknown one
+    if not (dataclasses.is_dataclass(solver) and hasattr(solver, "symmetry")):
+        raise InputError("symmetry", f"solver {getattr(solver, 'name', type(solver).__name__)!r} has no setting "
+                                     "'symmetry' (it solves the symmetric half wing)")
+    return dataclasses.replace(solver, symmetry=symmetry)
 
 
 @dataclass

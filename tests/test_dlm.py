@@ -322,9 +322,10 @@ def test_root_symmetry_matches_an_explicit_full_span_lattice(symmetry):
     assert e.value.field == "symmetry"
 
 
-def test_wing_symmetry_reaches_the_dlm_training_and_other_solvers_refuse_it():
-    """A wing's root symmetry is part of a dlm ROM's identity and reaches its lattice; the uvlm and the tsd, which
-    solve the symmetric half wing only, refuse such a wing naming ``solver``."""
+def test_wing_symmetry_reaches_the_dlm_training_and_the_tsd_refuses_it():
+    """A wing's root symmetry is part of a dlm ROM's identity and reaches its lattice (and of a uvlm ROM's:
+    tests/test_uvlm_symmetry.py); the tsd, which solves the symmetric half wing only, refuses such a wing naming
+    ``solver``."""
     import dataclasses
 
     from romams.services.errors import InvalidInput
@@ -342,7 +343,7 @@ def test_wing_symmetry_reaches_the_dlm_training_and_other_solvers_refuse_it():
     assert "root antisymmetric" in rom.solver_description
     sym = train(mesh, shapes, 0.5, {**fast, "options": {**fast["options"], "symmetry": "symmetric"}})
     assert abs(rom.gaf[2, 0, 0] - sym.gaf[2, 0, 0]) > 0.05 * abs(sym.gaf[2, 0, 0])  # the image loads it otherwise
-    for solver in ("uvlm", "tsd"):
-        with pytest.raises(InvalidInput) as e:
-            rom_identity(solver, wing=wing)
-        assert e.value.field == "solver"
+    assert rom_identity("uvlm", wing=wing)["options"] == {"symmetry": "antisymmetric"}
+    with pytest.raises(InvalidInput) as e:
+        rom_identity("tsd", wing=wing)
+    assert e.value.field == "solver"

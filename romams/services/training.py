@@ -25,6 +25,8 @@ DEFAULT_SOLVER = "dlm"
 FREQUENCY_SOLVERS = ("dlm",)
 TIME_SOLVERS = ("uvlm", "tsd")
 SOLVERS = FREQUENCY_SOLVERS + TIME_SOLVERS
+#: solvers that model every root symmetry (symmetric, antisymmetric, none: a free wing) by a mirror image's sign
+SYMMETRY_SOLVERS = ("dlm", "uvlm")
 #: train-function arguments set by the service itself (not allowed in a request's ``options``)
 RESERVED_OPTIONS = frozenset({"mesh", "shapes", "mach", "solver", "na", "nb", "progress"})
 
@@ -87,8 +89,9 @@ def rom_identity(solver: str = DEFAULT_SOLVER, na: int = 8, nb: int = 8,
     """Identity of a trained ROM besides (wing, basis, Mach): the same dict the HTTP API stores.
 
     For the TSD the wing's section (thickness form and t/c, ``section_options``) is part of the identity unless
-    the options name it; for the DLM a root symmetry other than symmetric (antisymmetric, or none: a free wing)
-    is. Another solver on such a wing is InvalidInput naming ``solver``."""
+    the options name it; for the DLM and the UVLM a root symmetry other than symmetric (antisymmetric, or none: a
+    free wing) is (a symmetric wing's identity names none, as before). The TSD, whose grid has a root symmetry
+    plane, refuses such a wing: InvalidInput naming ``solver``."""
     if is_frequency_solver(solver) or is_external(solver):
         na = nb = 0  # an imported model is one per (wing, basis, Mach, label): importing again replaces it
     opts = {} if is_external(solver) else dict(options or {})
@@ -96,11 +99,12 @@ def rom_identity(solver: str = DEFAULT_SOLVER, na: int = 8, nb: int = 8,
         opts = {**section_options(wing), **opts}
     symmetry = getattr(wing, "symmetry", "symmetric") if wing is not None else "symmetric"
     if symmetry != "symmetric" and not is_external(solver):
-        if solver != "dlm":
+        if solver not in SYMMETRY_SOLVERS:
             from romams.services.errors import InvalidInput
 
-            raise InvalidInput("solver", f"the wing is {symmetry!r} about its root; only the dlm models that "
-                                         f"(the {solver} solves the symmetric half wing)")
+            raise InvalidInput("solver", f"the wing is {symmetry!r} about its root; the {solver} solves the "
+                                         f"symmetric half wing only (its grid has a root symmetry plane): use "
+                                         f"{' or '.join(SYMMETRY_SOLVERS)}")
         opts = {**opts, "symmetry": symmetry}
     return {"solver": str(solver), "na": int(na), "nb": int(nb), "options": dict(sorted(opts.items()))}
 
@@ -130,10 +134,12 @@ def allowed_options(solver: str) -> set[str]:
 def check_options(solver: str, options: Mapping[str, Any], n_shapes: int | None = None) -> None:
     """Validate the values of training settings before a job is queued (InvalidInput naming
     ``options.<name>``), with the core's own check (``check_rfa_settings`` for the dlm, ``check_tsd_settings``
-    for the tsd, which also refuses a grid too coarse for ``n_shapes``; the UVLM trainer checks as it starts)."""
-    if solver not in ("dlm", "tsd"):
+    for the tsd, which also refuses a grid too coarse for ``n_shapes``; the UVLM trainer checks the rest as it
+    starts, its ``symmetry`` here)."""
+    if solver not in ("dlm", "tsd", "uvlm"):
         return
     from romams.services.errors import InvalidInput
+    from romams_core.aero.protocol import image_sign
     from romams_core.errors import InputError
     from romams_core.training_rfa import check_rfa_settings
     from romams_core.training_tsd import check_tsd_settings
@@ -141,6 +147,9 @@ def check_options(solver: str, options: Mapping[str, Any], n_shapes: int | None 
     try:
         if solver == "tsd":
             check_tsd_settings(n_shapes, **options)
+        elif solver == "uvlm":
+            if options.get("symmetry") is not None:
+                image_sign(options["symmetry"])
         else:
             check_rfa_settings(**options)  # names already checked against allowed_options
     except InputError as exc:
@@ -162,7 +171,8 @@ def train(mesh: Any, shapes: Any, mach: float, ident: Mapping[str, Any],
 
         k = np.array([x for x in CHECK_K if x <= rom.k_max])  # within the ROM's excitation band
         if k.size:
-            rom.warnings.extend(uvlm_damping_warnings(mesh, shapes, float(mach), rom.ss.freqresp(k), k))
+            rom.warnings.extend(uvlm_damping_warnings(mesh, shapes, float(mach), rom.ss.freqresp(k), k,
+                                                      symmetry=str(options.get("symmetry") or "symmetric")))
     return rom
 
 

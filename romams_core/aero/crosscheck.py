@@ -36,16 +36,16 @@ def damping_disagreements(h: np.ndarray, h_ref: np.ndarray, k: np.ndarray, min_s
 
 
 def uvlm_damping_warnings(mesh: StandardMesh, shapes: np.ndarray, mach: float, rom_freqresp: np.ndarray,
-                          k: np.ndarray, reference: object | None = None) -> list[str]:
+                          k: np.ndarray, reference: object | None = None, symmetry: str = "symmetric") -> list[str]:
     """Warnings naming the shapes whose ROM damping (``rom_freqresp`` [nk, m, m] at k) the DLM contradicts.
 
     ``reference``: a frequency-domain solver (default: the DLM on the unrefined lattice, whose damping terms are
-    within a few per cent of the refined one's, at a tenth of the cost).
+    within a few per cent of the refined one's, at a tenth of the cost, with the ROM's root ``symmetry``).
     """
     if reference is None:
         from romams_core.aero.dlm import DlmSolver
 
-        reference = DlmSolver(refine=1)
+        reference = DlmSolver(refine=1, symmetry=symmetry)
     h_ref = np.asarray(reference.gaf(mesh, shapes, mach, np.asarray(k, float)))  # type: ignore[attr-defined]
     out = []
     by_shape: dict[int, list[tuple[float, complex, complex]]] = {}

@@ -38,12 +38,11 @@ from romams_core.aero.protocol import (
     check_k_values,
     check_mach,
     check_shapes,
+    image_sign,
     mach_warnings,
 )
 from romams_core.aero.uvlm import _interp_matrix, refine_mesh
-from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
-from romams_core.wing import SYMMETRIES
 
 __all__ = [
     "DlmSystem",
@@ -233,17 +232,6 @@ def _fingerprint(mesh: StandardMesh) -> tuple[Any, ...]:
     """Hashable identity of a lattice mesh (node coordinates and counts)."""
     xy = np.ascontiguousarray(np.column_stack([mesh.x, mesh.y]), dtype=float)
     return (mesh.n_chord, mesh.n_span, hashlib.sha1(xy.tobytes()).hexdigest())
-
-
-#: the mirror image's loading sign of each root symmetry: symmetric +1, antisymmetric -1, none (a free wing) 0
-IMAGE_SIGN = dict(zip(SYMMETRIES, (1.0, -1.0, 0.0), strict=True))
-
-
-def image_sign(symmetry: str) -> float:
-    """+1, -1 or 0 for a symmetric, antisymmetric or free (no mirror) wing (InputError naming ``symmetry``)."""
-    if symmetry not in IMAGE_SIGN:
-        raise InputError("symmetry", f"must be one of {tuple(IMAGE_SIGN)}, got {symmetry!r}")
-    return IMAGE_SIGN[symmetry]
 
 
 def build_dlm(mesh: StandardMesh, mach: float, symmetry: str = "symmetric") -> DlmSystem:

@@ -26,6 +26,7 @@ import numpy as np
 
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
+from romams_core.wing import SYMMETRIES
 
 ProgressFn = Callable[[float, str], None]
 
@@ -119,6 +120,19 @@ def check_mach(mach: float, upper: float = 0.999) -> float:
     if not 0.0 <= float(mach) < upper:
         raise InputError("mach", f"must be in [0, {upper}) for this solver, got {mach}")
     return float(mach)
+
+
+#: the mirror image's loading sign of each root symmetry (``romams_core.wing.SYMMETRIES``): symmetric +1,
+#: antisymmetric -1, none (a free wing) 0; the DLM's image boxes and the UVLM's image rings and wake carry it
+IMAGE_SIGN = dict(zip(SYMMETRIES, (1.0, -1.0, 0.0), strict=True))
+
+
+def image_sign(symmetry: str) -> float:
+    """+1, -1 or 0 (dimensionless) for a symmetric, antisymmetric or free (no mirror) wing (InputError naming
+    ``symmetry``)."""
+    if symmetry not in IMAGE_SIGN:
+        raise InputError("symmetry", f"must be one of {tuple(IMAGE_SIGN)}, got {symmetry!r}")
+    return IMAGE_SIGN[symmetry]
 
 
 def check_dt_star(dt_star: float) -> float:

@@ -2,8 +2,10 @@
 
 Model (derivation and verification in docs/aerodynamics.md):
 - vortex rings on the standard-mesh panels, shifted a quarter panel chord aft (Kutta condition implicit);
-  optional tip inset of the outer side legs by a quarter strip (Hough); the root is a symmetry plane
-  (mirror image lattice), so the mesh is a half wing;
+  optional tip inset of the outer side legs by a quarter strip (Hough); the mesh is a half wing whose root
+  condition (``symmetry``, the DLM's) sets the image lattice mirrored about y = 0, bound rings and wake alike:
+  the same strengths (symmetric), the opposite (antisymmetric), or none (a free wing, whose root edge is then
+  a tip: inset too);
 - collocation at 3/4 panel chord, mid lattice strip, normal +z; transpiration boundary condition
   w = dh/dt + V dh/dx with h and dh/dx from the panel's bilinear interpolant of the nodal shape values;
 - flat wake convected at V, one row (length dt_star * c_ref) shed per step, truncated after
@@ -39,6 +41,7 @@ from romams_core.aero.protocol import (
     check_mach,
     check_shapes,
     check_signals,
+    image_sign,
     mach_warnings,
 )
 from romams_core.errors import InputError
@@ -82,12 +85,20 @@ def _segment_wz(
 
 
 def _ring_influence(
-    px: np.ndarray, py: np.ndarray, xc: np.ndarray, yc: np.ndarray, cutoff: float = 1e-9, chunk: int = 2_000_000
+    px: np.ndarray,
+    py: np.ndarray,
+    xc: np.ndarray,
+    yc: np.ndarray,
+    cutoff: float = 1e-9,
+    chunk: int = 2_000_000,
+    image_sign: float = 1.0,
 ) -> np.ndarray:
-    """z-velocity [P, nL, ns] at points from unit vortex rings on a corner grid xc [nL+1, ns+1], yc [ns+1].
+    """z-velocity [P, nL, ns] (per unit ring strength, lengths / c_ref) at points from unit vortex rings on a
+    corner grid xc [nL+1, ns+1], yc [ns+1].
 
     Ring (a, b) has corners (a, b), (a, b+1), (a+1, b+1), (a+1, b); positive strength induces downwash
-    inside (lift up for flow along +x). The mirror image about y = 0 (symmetric loading) is included.
+    inside (lift up for flow along +x). The mirror image about y = 0 is added with strength ``image_sign``
+    times the ring's (+1 symmetric, -1 antisymmetric loading; 0: no image, not evaluated).
     Unique legs are evaluated once and differenced, chunked over points to bound memory.
     """
     nl1, ns1 = xc.shape
@@ -108,9 +119,10 @@ def _ring_influence(
     step = max(1, chunk // max(1, 2 * n_seg))
     for p0 in range(0, px.size, step):
         sl = slice(p0, min(px.size, p0 + step))
-        # real lattice plus image: reflected segment runs from B' to A' (same strength)
+        # real lattice plus image: the reflected segment runs from B' to A' (strength image_sign)
         v = _segment_wz(px[sl], py[sl], ax, ay, bx, by, cutoff)
-        v += _segment_wz(px[sl], py[sl], bx, -by, ax, -ay, cutoff)
+        if image_sign != 0.0:
+            v += image_sign * _segment_wz(px[sl], py[sl], bx, -by, ax, -ay, cutoff)
         vs = v[:, :n_s].reshape(-1, nl + 1, ns)
         vc = v[:, n_s:].reshape(-1, nl, ns + 1)
         out[sl] = vs[:, :-1, :] - vs[:, 1:, :] + vc[:, :, 1:] - vc[:, :, :-1]
@@ -141,6 +153,7 @@ class UvlmSystem:
     colloc_xy: np.ndarray = field(repr=False)  # [K, 2] physical collocation points (m)
     force_xy: np.ndarray = field(repr=False)  # [K, 2] physical force points (m)
     panel_area: np.ndarray = field(repr=False)  # [K] physical lattice panel areas dx * dy (m^2)
+    image_sign: float = 1.0  # the mirror image's strength: +1 symmetric, -1 antisymmetric, 0 none (a free wing)
 
     @property
     def n_panels(self) -> int:
@@ -177,36 +190,57 @@ def _interp_matrix(mesh: StandardMesh, s: np.ndarray, t: np.ndarray, derivative:
     return sp.csr_matrix((w.ravel(), (rows, cols)), shape=(nc * ns, mesh.n_nodes))
 
 
+def _ring_grid(
+    mesh: StandardMesh, tip_inset: bool, free_root: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Node grid (xn [nc+1, ns+1], yn [ns+1]) and ring corner grid (xr [nc+1, ns+1], yl [ns+1]), lengths / c_ref.
+
+    Ring corners sit a quarter panel chord aft of the nodes. ``tip_inset`` moves the tip's side legs inboard by
+    a quarter strip, and the root's too when ``free_root`` (a free wing's root edge is a tip).
+    """
+    c = mesh.c_ref
+    xn = mesh.grid(mesh.x).T / c
+    yn = mesh.grid(mesh.y)[:, 0] / c
+    dxn = np.diff(xn, axis=0)  # [nc, ns+1]
+    xr = np.empty_like(xn)
+    xr[:-1] = xn[:-1] + 0.25 * dxn
+    xr[-1] = xn[-1] + 0.25 * dxn[-1]
+    yl = yn.copy()
+    if tip_inset:
+        xq = xr.copy()
+        yl[-1] = yn[-1] - 0.25 * (yn[-1] - yn[-2])
+        xr[:, -1] = xq[:, -2] + 0.75 * (xq[:, -1] - xq[:, -2])
+        if free_root:
+            yl[0] = yn[0] + 0.25 * (yn[1] - yn[0])
+            xr[:, 0] = xq[:, 1] + 0.75 * (xq[:, 0] - xq[:, 1])
+    return xn, yn, xr, yl
+
+
 def build_uvlm(
     mesh: StandardMesh,
     mach: float,
     dt_star: float,
     wake_chords: float = 20.0,
     tip_inset: bool = True,
+    symmetry: str = "symmetric",
 ) -> UvlmSystem:
     """Assemble and LU-factorize the nondimensional UVLM of ``mesh`` at ``mach`` with step ``dt_star``.
 
-    ``wake_chords``: wake length in root chords (rows of length dt_star * c_ref). Prandtl-Glauert/Goethert
-    stretch of x by 1/beta; unreliable toward M = 1 (see module docstring).
+    ``wake_chords``: wake length in root chords (rows of length dt_star * c_ref). ``symmetry``: the root's
+    (symmetric, antisymmetric, or none: a free wing), the sign of the mirror-image rings and wake
+    (``romams_core.wing.image_sign``). Prandtl-Glauert/Goethert stretch of x by 1/beta; unreliable toward
+    M = 1 (see module docstring).
     """
     mach = check_mach(mach)
     dt_star = check_dt_star(dt_star)
     if not (math.isfinite(wake_chords) and wake_chords > 0):
         raise InputError("wake_chords", f"must be a finite number > 0, got {wake_chords!r}")
+    sign = image_sign(symmetry)
     beta = math.sqrt(1.0 - mach**2)
     nc, ns, c = mesh.n_chord, mesh.n_span, mesh.c_ref
     n_wake = max(1, int(math.ceil(wake_chords / dt_star - 1e-9)))
-    xn = mesh.grid(mesh.x).T / c  # [nc+1, ns+1], nondimensional
-    yn = mesh.grid(mesh.y)[:, 0] / c  # [ns+1]
+    xn, yn, xr, yl = _ring_grid(mesh, tip_inset, free_root=sign == 0.0)
     dxn = np.diff(xn, axis=0)  # [nc, ns+1]
-    # ring corner grid: quarter panel aft of the nodes
-    xr = np.empty_like(xn)
-    xr[:-1] = xn[:-1] + 0.25 * dxn
-    xr[-1] = xn[-1] + 0.25 * dxn[-1]
-    yl = yn.copy()
-    if tip_inset and ns >= 1:
-        yl[-1] = yn[-1] - 0.25 * (yn[-1] - yn[-2])
-        xr[:, -1] = xr[:, -2] + 0.75 * (xr[:, -1] - xr[:, -2])
     # panel parameters of collocation (3/4 chord) and force (1/4 chord) points: mid lattice strip
     j, i = np.divmod(np.arange(nc * ns), nc)
     y_mid = 0.5 * (yl[j] + yl[j + 1])
@@ -223,9 +257,10 @@ def build_uvlm(
     dy_hat = yl[j + 1] - yl[j]
     # influence coefficients in the stretched frame
     # _ring_influence returns [P, nL, ns] with ring index (a, b); panel index is b * nc + a
-    a0 = _ring_influence(xc / beta, y_mid, xr / beta, yl).transpose(0, 2, 1).reshape(nc * ns, nc * ns)
+    a0 = _ring_influence(xc / beta, y_mid, xr / beta, yl, image_sign=sign)
+    a0 = a0.transpose(0, 2, 1).reshape(nc * ns, nc * ns)
     xw = xr[-1][None, :] + dt_star * np.arange(n_wake + 1)[:, None]
-    aw = _ring_influence(xc / beta, y_mid, xw / beta, yl)  # [K, n_wake, ns]
+    aw = _ring_influence(xc / beta, y_mid, xw / beta, yl, image_sign=sign)  # [K, n_wake, ns]
     diff_x = sp.eye(nc * ns, format="csr") - sp.eye(nc * ns, k=-1, format="csr")
     lead = np.arange(0, nc * ns, nc)  # leading-edge panels have no upstream ring
     diff_x = sp.lil_matrix(diff_x)
@@ -251,6 +286,7 @@ def build_uvlm(
         colloc_xy=np.column_stack([xc, y_mid]) * c,
         force_xy=np.column_stack([xf, y_mid]) * c,
         panel_area=dx_hat * dy_hat * c**2,
+        image_sign=sign,
     )
 
 
@@ -394,19 +430,21 @@ def frequency_response(
     derivative: str = "exact",
     system: UvlmSystem | None = None,
     refine: int = 1,
+    symmetry: str = "symmetric",
 ) -> np.ndarray:
     """Complex GAC transfer matrix H [nk, m, m] (m^3; H[k, i, j] = f_i per unit u_j) at reduced frequencies k.
 
     k = omega b / V on b = c_ref / 2. ``dt_star`` defaults to 1 / n_chord (of the refined lattice when
     ``refine`` > 1: panels split refine x refine, shapes bilinearly interpolated). Pass a prebuilt ``system``
-    (of the mesh actually used) to reuse its factorization.
+    (of the mesh actually used) to reuse its factorization; it carries its own root symmetry, otherwise
+    ``symmetry`` (symmetric, antisymmetric, none) is the one built.
     """
     shapes = check_shapes(mesh, shapes)
     if refine != 1:
         mesh, interp = refine_mesh(mesh, refine)
         shapes = np.asarray(interp @ shapes)
     if system is None:
-        system = build_uvlm(mesh, mach, dt_star or 1.0 / mesh.n_chord, wake_chords=wake_chords)
+        system = build_uvlm(mesh, mach, dt_star or 1.0 / mesh.n_chord, wake_chords=wake_chords, symmetry=symmetry)
     forces = panel_forces_frequency(system, shapes, k_values, derivative)
     phi_f = system.interp_force @ shapes
     return 2.0 * system.c_ref**2 * np.einsum("km,nkj->nmj", phi_f, forces)
@@ -466,6 +504,14 @@ def check_shapes_system(system: UvlmSystem, shapes: np.ndarray) -> np.ndarray:
     return arr
 
 
+#: How each root symmetry's image is modelled (the solver's description).
+_IMAGE_WORDS = {
+    "symmetric": "(mirror-image rings and wake of the same strength)",
+    "antisymmetric": "(mirror-image rings and wake of the opposite strength)",
+    "none": "(no mirror image: a free wing)",
+}
+
+
 #: Above this Mach number the UVLM's quasi-steady compressibility stretch gives a measured phase error.
 UVLM_PHASE_WARNING_MACH = 0.5
 
@@ -493,13 +539,15 @@ class UvlmSolver:
     wake rows keep the lattice's panel length. The default 2 is what the damping of chordwise-bending modes
     needs on the 10 x 14 standard mesh (with 1 the cropped delta's 4th mode gets spurious negative
     aerodynamic damping; see docs/aerodynamics.md); 1 reproduces the plain lattice. ``wake_chords``: 10 root
-    chords (low-aspect-ratio wings lose < 0.3 % steady lift to the truncation).
+    chords (low-aspect-ratio wings lose < 0.3 % steady lift to the truncation). ``symmetry``: the root's,
+    as the DLM's (symmetric, antisymmetric, or none: a free wing), the sign of the mirror-image rings and wake.
     """
 
     wake_chords: float = 10.0
     tip_inset: bool = True
     refine: int = 2
     name: str = "uvlm"
+    symmetry: str = "symmetric"  # of the root plane: symmetric, antisymmetric or none (a free wing)
 
     def info(self, mach: float) -> SolverInfo:
         """Solver description and the warnings for results at ``mach``."""
@@ -507,14 +555,16 @@ class UvlmSolver:
             name=self.name,
             description=(
                 f"linear vortex-ring UVLM (lattice refined {self.refine}x, {self.refine} sub-steps), frozen flat "
-                f"wake of {self.wake_chords:g} chords, transpiration BC, Prandtl-Glauert/Goethert compressibility"
+                f"wake of {self.wake_chords:g} chords, transpiration BC, Prandtl-Glauert/Goethert compressibility, "
+                f"root {self.symmetry} " + _IMAGE_WORDS.get(self.symmetry, "")
             ),
             warnings=uvlm_warnings(float(mach)),
         )
 
     def build(self, mesh: StandardMesh, mach: float, dt_star: float) -> UvlmSystem:
         """Assemble the system for ``mesh`` (used as given, no refinement) at ``mach`` and step ``dt_star``."""
-        return build_uvlm(mesh, mach, dt_star, wake_chords=self.wake_chords, tip_inset=self.tip_inset)
+        return build_uvlm(mesh, mach, dt_star, wake_chords=self.wake_chords, tip_inset=self.tip_inset,
+                          symmetry=self.symmetry)
 
     def simulate(
         self,
