@@ -69,8 +69,13 @@ def wing_schema() -> dict[str, Any]:
     props = schema.get("properties", {})
     if "symmetry" in props:
         props["symmetry"]["enum"] = ["symmetric", "antisymmetric", "none"]
-        props["symmetry"]["description"] = ("symmetry about the root plane; the solvers support 'symmetric' only "
-                                            "so far")
+        props["symmetry"]["description"] = ("symmetry about the root plane: the DLM and the UVLM model all three; "
+                                            "the TSD solves the symmetric half wing only")
+    kinks = defs.get("Planform", {}).get("properties", {}).get("kinks")
+    if kinks is not None:
+        kinks["description"] = ("a cranked planform's interior span stations [y, leading-edge x, chord] (m), y "
+                                "increasing between 0 and the semispan; leading edge and chord are linear between "
+                                "stations; omitted or empty: one trapezoid")
     if "structure" in props:
         props["structure"]["description"] = "the parametric structure, or null: a planform-only wing (external modes)"
     if "origin" in props:

@@ -26,7 +26,7 @@ from romams_core.validation import check_int, check_number
 
 THICKNESS_FORMS = ("constant", "naca4", "naca65a004")
 #: aerodynamic symmetry about the root (x-z) plane: a half wing mirrored symmetrically, antisymmetrically, or
-#: a free wing (no mirror); the DLM models all three, the UVLM and the TSD the symmetric case only
+#: a free wing (no mirror); the DLM and the UVLM model all three, the TSD the symmetric case only
 SYMMETRIES = ("symmetric", "antisymmetric", "none")
 BEAM_PLACEMENTS = ("mid-plane", "eccentric")
 
@@ -276,6 +276,9 @@ class WingDefinition:
             return
         if not isinstance(self.structure, PlateStructure | BeamStructure):
             raise InputError("structure", "must be a PlateStructure, a BeamStructure or null (planform only)")
+        if self.planform.kinks:
+            raise InputError("planform.kinks", "the built-in plate and beam structures are one trapezoid; a cranked "
+                                               "planform is planform-only (structure null, modes from outside)")
         if self.baseline is not None and type(self.baseline) is not type(self.structure):
             raise InputError("baseline", "must be the same kind of structure as structure")
         object.__setattr__(self, "design_variables", tuple(self.design_variables))
@@ -389,7 +392,7 @@ class WingDefinition:
         return {
             "name": self.name,
             "description": self.description,
-            "planform": dataclasses.asdict(self.planform),
+            "planform": planform_dict(self.planform),
             "structure": None if self.structure is None else _structure_to_dict(self.structure),
             "baseline": None if self.baseline is None else _structure_to_dict(self.baseline),
             "design_variables": [dataclasses.asdict(v) for v in self.design_variables],
@@ -428,6 +431,16 @@ class WingDefinition:
             origin=d.get("origin") or (0.0, 0.0, 0.0),
             reference_chord=d.get("reference_chord"),
         )
+
+
+def planform_dict(planform: Planform) -> dict[str, Any]:
+    """JSON-able planform (m, rad); ``kinks`` only when there are some (a trapezoid's dict is unchanged)."""
+    d = dataclasses.asdict(planform)
+    if planform.kinks:
+        d["kinks"] = [list(k) for k in planform.kinks]
+    else:
+        d.pop("kinks")
+    return d
 
 
 def _structure_to_dict(s: PlateStructure | BeamStructure) -> dict[str, Any]:

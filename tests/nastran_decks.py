@@ -213,3 +213,14 @@ def stick_deck(folder, planform, *, n_el=10, sym_xz=1):
     data[:, :, 4] = phi[:, 2].T  # R2 = twist about y
     op2 = write_op2(folder / "stick.op2", eigenvector_table(nids, data, freqs))
     return bdf, op2, y, phi
+
+
+def crank_deck(path, nspan=(4, 6)):
+    """A cranked wing of three CAERO1s: inboard trapezoid, then two outboard panels on one straight trapezoid."""
+    crank = BDF(debug=None)
+    crank.add_paero1(1)
+    crank.add_caero1(1, 1, 1, [1.0, 0.5, 0.0], 1.0, [1.1, 1.5, 0.0], 0.8, nspan=nspan[0], nchord=4)
+    crank.add_caero1(2, 1, 1, [1.1, 1.5, 0.0], 0.8, [1.35, 2.0, 0.0], 0.65, nspan=nspan[1] // 2, nchord=4)
+    crank.add_caero1(3, 1, 1, [1.35, 2.0, 0.0], 0.65, [1.6, 2.5, 0.0], 0.5, nspan=nspan[1] // 2, nchord=4)
+    finish_deck(crank, path)
+    return path

@@ -216,7 +216,7 @@ def test_units_and_wtmass(tmp_path):
 
 
 def test_planform_cards(tmp_path):
-    """Chordwise panel pairs merge; a cranked planform and a left wing are refused; AERO symmetry is honoured."""
+    """Chordwise panel pairs merge; AERO symmetry and TABDMP1 damping are honoured."""
     model = nd.BDF(debug=None)
     model.add_paero1(1)
     for eid, (x0, c) in enumerate(((0.0, 0.3), (0.3, 0.1)), start=1):  # wing box + flap panel, rectangular
@@ -243,13 +243,62 @@ def test_planform_cards(tmp_path):
     del model.tables_sdamping[6]
     nd.finish_deck(model, path)  # no SDAMP, one table: g / 2
     assert wing_from_bdf(path, symmetry="symmetric").modal_damping == pytest.approx(0.015)
-    crank = nd.BDF(debug=None)
-    crank.add_paero1(1)
-    crank.add_caero1(1, 1, 1, [0.0, 0.0, 0.0], 1.0, [0.1, 1.0, 0.0], 0.8, nspan=4, nchord=4)
-    crank.add_caero1(2, 1, 1, [0.1, 1.0, 0.0], 0.8, [0.6, 2.0, 0.0], 0.5, nspan=4, nchord=4)
-    nd.finish_deck(crank, tmp_path / "crank.bdf")
-    with pytest.raises(ValueError, match="caero1: the CAERO1 panels form a cranked planform"):
-        wing_from_bdf(tmp_path / "crank.bdf")
+
+
+def test_cranked_planform_becomes_one_standard_mesh(tmp_path):
+    """Several CAERO1 trapezoids with a bend in the leading edge and the chord: one planform with a kink where it
+    bends (the two collinear outboard panels merge), the mesh's node rows through the kink, its nodes on the
+    CAERO1 panels' edges and its area the panels' area."""
+    from romams_core.mesh import standard_mesh
+
+    wing = wing_from_bdf(nd.crank_deck(tmp_path / "crank.bdf"))
+    pf = wing.planform
+    assert wing.origin == (1.0, 0.5, 0.0)
+    assert (pf.root_chord, pf.tip_chord, pf.semispan, pf.n_span) == pytest.approx((1.0, 0.5, 2.0, 10))
+    np.testing.assert_allclose(pf.kinks, [(1.0, 0.1, 0.8)], rtol=1e-12)  # y, x_le, chord from the root LE
+    assert "cranked planform: 1 kink(s)" in wing.description
+    assert pf.area == pytest.approx(0.5 * (1.0 + 0.8) * 1.0 + 0.5 * (0.8 + 0.5) * 1.0, rel=1e-12)
+    mesh = standard_mesh(pf)
+    eta = mesh.eta
+    assert np.sum(np.isclose(eta * pf.semispan, 1.0, atol=1e-12)) == 1  # a node row at the kink
+    assert np.diff(eta[eta <= 0.5]).size == 5 and np.diff(eta[eta >= 0.5]).size == 5  # panels shared by span
+    x, y = mesh.grid(mesh.x), mesh.grid(mesh.y)
+    # leading and trailing edges of every node row on the deck's panel edges (exact linear interpolation)
+    le_deck = np.interp(y[:, 0], [0.0, 1.0, 2.0], [0.0, 0.1, 0.6])
+    te_deck = np.interp(y[:, 0], [0.0, 1.0, 2.0], [1.0, 0.9, 1.1])
+    np.testing.assert_allclose(x[:, 0], le_deck, atol=1e-12)
+    np.testing.assert_allclose(x[:, -1], te_deck, atol=1e-12)
+    p = mesh.panels
+    d1x, d1y = mesh.x[p[:, 2]] - mesh.x[p[:, 0]], mesh.y[p[:, 2]] - mesh.y[p[:, 0]]
+    d2x, d2y = mesh.x[p[:, 3]] - mesh.x[p[:, 1]], mesh.y[p[:, 3]] - mesh.y[p[:, 1]]
+    panel_area = 0.5 * np.abs(d1x * d2y - d1y * d2x)  # a quadrilateral's area from its diagonals
+    assert panel_area.sum() == pytest.approx(pf.area, rel=1e-12)
+    again = WingDefinition.from_dict(wing.to_dict())
+    assert again == wing
+    np.testing.assert_allclose(again.to_dict()["planform"]["kinks"], [[1.0, 0.1, 0.8]], rtol=1e-12)
+    xi, eta_back = pf.to_xi_eta(mesh.x, mesh.y)  # the mapping inverts on the cranked planform too
+    np.testing.assert_allclose(pf.to_xy(xi, eta_back), (mesh.x, mesh.y), atol=1e-12)
+
+
+def test_cranked_planform_checks():
+    """Kinks are validated by field; a built-in structure on a cranked planform is refused; a trapezoid's dict
+    has no kinks key (stored wings are unchanged)."""
+    from romams_core.mesh import Planform
+    from romams_core.wing import template
+
+    with pytest.raises(ValueError, match=r"planform.kinks\[0\].y: must be"):
+        Planform(1.0, 0.5, 2.0, kinks=[(2.5, 0.1, 0.8)])
+    with pytest.raises(ValueError, match=r"planform.kinks\[1\].y: kinks must be in increasing y"):
+        Planform(1.0, 0.5, 2.0, kinks=[(1.0, 0.1, 0.8), (0.5, 0.1, 0.8)])
+    with pytest.raises(ValueError, match=r"planform.kinks\[0\].chord"):
+        Planform(1.0, 0.5, 2.0, kinks=[(1.0, 0.1, -0.8)])
+    with pytest.raises(ValueError, match="planform.n_span: a planform with 2 kink"):
+        Planform(1.0, 0.5, 2.0, n_span=2, kinks=[(0.5, 0.1, 0.9), (1.0, 0.2, 0.8)])
+    base = template("cropped-delta").to_dict()
+    assert "kinks" not in base["planform"]
+    bad = {**base, "planform": {**base["planform"], "kinks": [[0.1, 0.05, 0.2]]}}
+    with pytest.raises(ValueError, match="planform.kinks: the built-in plate and beam structures"):
+        WingDefinition.from_dict(bad)
 
 
 def test_includes_are_confined_and_messages_name_no_folder(tmp_path):

@@ -256,3 +256,37 @@ def test_gaf_does_not_depend_on_the_signal_step():
     ratio = coarse / fine
     assert abs(ratio) == pytest.approx(1.0, abs=0.01)
     assert abs(math.degrees(np.angle(ratio))) < 1.0
+
+
+CRANKED = Planform(root_chord=1.0, tip_chord=0.5, semispan=2.0, sweep_le=math.atan(0.6 / 2.0), n_chord=8, n_span=10,
+                   kinks=((1.0, 0.1, 0.8),))
+
+
+def test_grid_and_shape_transfer_follow_a_cranked_planform():
+    """A cranked planform (kink at mid-span): wing nodes inside the polyline planform, the metric equal to a finite
+    difference of xi(x, y) = (x - x_le(y)) / c(y), and the shape transfer exact for bilinear fields on the mesh's
+    unequal node rows."""
+    solver = TsdSolver(grid=GridSpec(n_chord=16, n_upstream=6, n_downstream=8, n_span=12, n_outboard=4, n_z=10,
+                                     dz0=0.04))
+    mesh = standard_mesh(CRANKED)
+    g = solver.build_grid(mesh)
+    x, y = g.node_xy()
+    xle, c = np.interp(y, [0, 1, 2], [0, 0.1, 0.6]), np.interp(y, [0, 1, 2], [1.0, 0.8, 0.5])
+    assert np.array_equal((x > xle) & (x < xle + c) & (y < 2.0), g.wing)
+    xi0, h = 0.3, 1e-6
+    def xi_of(x_, y_):
+        return (x_ - np.interp(y_, [0, 1, 2], [0, 0.1, 0.6])) / np.interp(y_, [0, 1, 2], [1.0, 0.8, 0.5])
+
+    for yy in (0.4, 1.6):  # inboard and outboard of the kink
+        x0 = np.interp(yy, [0, 1, 2], [0, 0.1, 0.6]) + xi0 * np.interp(yy, [0, 1, 2], [1.0, 0.8, 0.5])
+        fd = (xi_of(x0, yy + h) - xi_of(x0, yy - h)) / (2 * h)
+        assert g.xi_y(xi0, yy) == pytest.approx(fd, rel=1e-6)
+    in_slope = -(0.1 + xi0 * -0.2) / 0.8
+    out_slope = -(0.5 + xi0 * -0.3) / 0.8
+    assert g.xi_y(xi0, 1.0) == pytest.approx(0.5 * (in_slope + out_slope), rel=1e-12)  # both sides at the kink
+    xi, eta = CRANKED.to_xi_eta(mesh.x, mesh.y)
+    field = 0.3 + 0.7 * xi - 0.2 * eta + 0.9 * xi * eta
+    rng = np.random.default_rng(2)
+    px, pe = rng.uniform(0, 1, 50), rng.uniform(0, 1, 50)
+    got = mesh_interpolation(mesh, px, pe) @ field
+    assert np.allclose(got, 0.3 + 0.7 * px - 0.2 * pe + 0.9 * px * pe, atol=1e-12)

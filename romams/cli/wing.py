@@ -27,7 +27,8 @@ def import_command(
     name: str | None = typer.Option(None, "--name", help="wing name (default: the file's stem)"),
     units: str = typer.Option("si", "--units", help="the deck's units: si, mm-t-s, in-lbf-s, ft-lbf-s"),
     symmetry: str | None = typer.Option(None, "--symmetry", help="override the AERO/AEROS symmetry: "
-                                         "symmetric, antisymmetric or none (a free wing; the dlm models all three)"),
+                                         "symmetric, antisymmetric or none (a free wing; the dlm and the uvlm "
+                                         "model all three, the tsd the symmetric case)"),
     n_chord: int | None = typer.Option(None, "--n-chord", min=1, max=200, help="standard-mesh chordwise panels "
                                                                                "(default: the deck's boxes)"),
     n_span: int | None = typer.Option(None, "--n-span", min=1, max=200, help="standard-mesh spanwise panels"),
@@ -52,7 +53,8 @@ def import_command(
     out.write_text(text + "\n")
     pf = wing.planform
     typer.echo(f"{wing.name}: root chord {pf.root_chord:.6g} m, tip chord {pf.tip_chord:.6g} m, semispan "
-               f"{pf.semispan:.6g} m, {pf.n_chord} x {pf.n_span} panels, symmetry {wing.symmetry} -> {out}",
+               f"{pf.semispan:.6g} m, {len(pf.kinks)} kink(s), {pf.n_chord} x {pf.n_span} panels, symmetry "
+               f"{wing.symmetry} -> {out}",
                err=True)
 
 

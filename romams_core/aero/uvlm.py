@@ -24,7 +24,6 @@ one march serves every V and rho. All arrays that are per-panel use the panel in
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -45,7 +44,7 @@ from romams_core.aero.protocol import (
     mach_warnings,
 )
 from romams_core.errors import InputError
-from romams_core.mesh import StandardMesh, standard_mesh
+from romams_core.mesh import StandardMesh, refined_mesh
 from romams_core.statespace import DiscreteSS
 
 __all__ = [
@@ -405,7 +404,7 @@ def refine_mesh(mesh: StandardMesh, factor: int) -> tuple[StandardMesh, sp.csr_m
     if not (isinstance(factor, int | np.integer) and 1 <= factor <= 8):
         raise InputError("refine", f"must be an integer in [1, 8], got {factor!r}")
     nc, ns = mesh.n_chord, mesh.n_span
-    fine = standard_mesh(dataclasses.replace(mesh.planform, n_chord=nc * factor, n_span=ns * factor))
+    fine = refined_mesh(mesh, factor)  # each panel split in equal parts (a cranked mesh's rows stay its rows)
     if factor == 1:
         return fine, sp.identity(mesh.n_nodes, format="csr")
     jf, i_f = np.divmod(np.arange(fine.n_nodes), nc * factor + 1)

@@ -1,12 +1,12 @@
 """The wing planform of a Nastran deck: CAERO1 panels, their box divisions, AERO / AEROS reference and symmetry.
 
-CAERO1 panels are merged into the one trapezoid of the standard mesh: panels side by side chordwise (a wing
+CAERO1 panels are merged into the one planform of the standard mesh: panels side by side chordwise (a wing
 box and its control-surface panel) join into one strip, strips join spanwise (several trapezoids along the
-span). The union must be one straight-edged trapezoid (leading edge and chord linear in span within
-``tol`` x root chord); a cranked planform is refused. The root leading edge need not be at the origin: the
-planform is translated there and the offset recorded (``origin``, in metres in the deck's basic frame).
-Dihedral is projected away (the standard mesh is flat). Box counts: NSPAN/NCHORD, or the AEFACT lists of
-LSPAN/LCHORD (n + 1 fractions -> n boxes; the standard mesh uses equal fractions). Structural damping: the
+span). Where the leading edge or the chord bends between strips, the planform gets a kink there (a cranked
+planform, ``Planform.kinks``); strips on one straight trapezoid merge into it. The root leading edge need not
+be at the origin: the planform is translated there and the offset recorded (``origin``, in metres in the deck's
+basic frame). Dihedral is projected away (the standard mesh is flat). Box counts: NSPAN/NCHORD, or the AEFACT
+lists of LSPAN/LCHORD (n + 1 fractions -> n boxes; the standard mesh uses equal fractions). Structural damping: the
 TABDMP1 table (SDAMP) as the wing's modal damping ratio.
 """
 
@@ -119,29 +119,26 @@ def _strips(corners: np.ndarray, tol: float) -> list[np.ndarray]:
     return sorted(strips, key=lambda q: q[0, 1])
 
 
-def _trapezoid(strips: list[np.ndarray], tol: float) -> tuple[np.ndarray, float, float, float, float]:
-    """(root LE point, root chord, tip chord, semispan, LE sweep) of strips joined spanwise; one trapezoid only."""
+def _stations(strips: list[np.ndarray], tol: float) -> np.ndarray:
+    """Span stations [S, 3] (y, leading-edge x, chord; deck units) of strips joined spanwise: the root, every
+    interior strip edge where the leading edge or the chord bends (a kink), the tip."""
     for a, b in zip(strips, strips[1:], strict=False):
         if not (np.allclose(a[3], b[0], atol=tol) and np.allclose(a[2], b[1], atol=tol)):
             raise InputError("caero1", "the CAERO1 panels do not join spanwise (tip edge of one = root edge of the "
                                        "next); a wing with gaps or overlaps cannot be one standard mesh")
-    root, tip = strips[0], strips[-1]
-    semispan = float(tip[3, 1] - root[0, 1])
-    if semispan <= 0:
+    edges = [(q[0, 1], q[0, 0], q[1, 0] - q[0, 0]) for q in strips] + [
+        (strips[-1][3, 1], strips[-1][3, 0], strips[-1][2, 0] - strips[-1][3, 0])]
+    pts = np.array(edges, dtype=float)
+    if pts[-1, 0] - pts[0, 0] <= 0:
         raise InputError("caero1", "the panels' tips lie at smaller y than their roots (a left wing?); give the "
                                    "right half wing (y from root to tip increasing)")
-    c_root, c_tip = float(root[1, 0] - root[0, 0]), float(tip[2, 0] - tip[3, 0])
-    sweep = math.atan2(float(tip[3, 0] - root[0, 0]), semispan)
-    for q in strips[1:]:  # interior stations on the straight leading edge and the linear chord
-        eta = (q[0, 1] - root[0, 1]) / semispan
-        le = root[0, 0] + eta * (tip[3, 0] - root[0, 0])
-        chord = c_root + eta * (c_tip - c_root)
-        off = max(abs(q[0, 0] - le), abs(q[1, 0] - q[0, 0] - chord))
-        if off > tol * 10:
-            raise InputError("caero1", f"the CAERO1 panels form a cranked planform (at y = {q[0, 1]:.6g} the "
-                                       f"leading edge or chord is {off:.4g} off the straight trapezoid); the "
-                                       "standard mesh is one trapezoid")
-    return root[0], c_root, c_tip, semispan, sweep
+    keep = [0]
+    for n in range(1, len(pts) - 1):  # drop an edge on the straight line from the last kept station to the next
+        a, b, c = pts[keep[-1]], pts[n], pts[n + 1]
+        lin = a[1:] + (b[0] - a[0]) / (c[0] - a[0]) * (c[1:] - a[1:])
+        if np.abs(b[1:] - lin).max() > tol * 10:
+            keep.append(n)
+    return pts[keep + [len(pts) - 1]]
 
 
 def planform_from_model(model: Any, units: str = "si", n_chord: int | None = None,
@@ -151,7 +148,16 @@ def planform_from_model(model: Any, units: str = "si", n_chord: int | None = Non
     corners = panel_corners(model)
     tol = 1e-4 * float(np.ptp(corners[:, :, :2].reshape(-1, 2), axis=0).max())
     notes: list[str] = []
-    le, c_root, c_tip, semispan, sweep = _trapezoid(_strips(corners, tol), tol)
+    strips = _strips(corners, tol)
+    st = _stations(strips, tol)
+    le = strips[0][0]
+    semispan = float(st[-1, 0] - st[0, 0])
+    sweep = math.atan2(float(st[-1, 1] - st[0, 1]), semispan)
+    kinks = tuple((float(y - st[0, 0]) * length, float(x - st[0, 1]) * length, float(c) * length)
+                  for y, x, c in st[1:-1])
+    if kinks:
+        notes.append(f"cranked planform: {len(kinks)} kink(s) at y = "
+                     + ", ".join(f"{k[0]:.4g}" for k in kinks) + " m")
     dz = float(np.ptp(corners[:, :, 2]))
     if dz > 1e-3 * semispan:
         notes.append(f"dihedral / camber of {dz * length:.4g} m in z projected onto the x-y plane")
@@ -173,8 +179,9 @@ def planform_from_model(model: Any, units: str = "si", n_chord: int | None = Non
             raise InputError("symmetry", f"{aero.type} SYMXY = {aero.sym_xy} (mirror about the x-y plane, ground "
                                          "effect) is not supported")
         cref = float(aero.cref) * length if getattr(aero, "cref", None) else None
-    planform = Planform(root_chord=c_root * length, tip_chord=c_tip * length, semispan=semispan * length,
-                        sweep_le=sweep, n_chord=int(nc), n_span=int(ns))
+    ns = max(int(ns), len(kinks) + 1)
+    planform = Planform(root_chord=float(st[0, 2]) * length, tip_chord=float(st[-1, 2]) * length,
+                        semispan=semispan * length, sweep_le=sweep, n_chord=int(nc), n_span=ns, kinks=kinks)
     origin = tuple(float(v) * length for v in le)
     return DeckPlanform(planform, (origin[0], origin[1], origin[2]), symmetry, cref, len(caeros), notes)
 

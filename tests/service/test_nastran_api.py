@@ -12,6 +12,7 @@ import tempfile
 import zipfile
 
 import nastran_decks as nd  # tests/nastran_decks.py: skips this module without pyNastran (not under CI)
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
@@ -95,6 +96,22 @@ def test_wing_from_a_zipped_deck_with_include(client, deck):
     validator.validate(d)
     validator.validate(client.get("/api/v1/wings/stick-files").json()["definition"])
     assert not validator.is_valid({**d, "symmetry": "sideways"})
+
+
+def test_cranked_deck_upload(client, tmp_path):
+    """Three CAERO1s with a bend: the stored wing has the kink, and the served schema validates it (and refuses
+    a kink that is not a [y, x_le, chord] triple)."""
+    data = nd.crank_deck(tmp_path / "crank.bdf").read_bytes()
+    r = client.post("/api/v1/wings", files={"bdf": ("crank.bdf", data)}, data={"name": "crank"})
+    assert r.status_code == 201, r.text
+    d = client.get("/api/v1/wings/crank").json()["definition"]
+    np.testing.assert_allclose(d["planform"]["kinks"], [[1.0, 0.1, 0.8]], rtol=1e-12)
+    import jsonschema_rs
+
+    schema = client.get("/api/v1/schemas/wing").json()
+    jsonschema_rs.validator_for(schema).validate(d)
+    bad = {**d, "planform": {**d["planform"], "kinks": [[1.0, 0.1]]}}
+    assert not jsonschema_rs.validator_for(schema).is_valid(bad)
 
 
 def test_bad_deck_uploads(client, deck):

@@ -73,6 +73,7 @@ class TsdGrid:
     tan_sweep: float
     taper: float  # tip chord / root chord
     lateral_far: bool  # False: the outer y face is a symmetry plane too (2-D)
+    kinks: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # [K, 3] (y, x_le, chord), c_ref units
     xc: np.ndarray = field(init=False)
     yc: np.ndarray = field(init=False)
     zc: np.ndarray = field(init=False)
@@ -98,20 +99,41 @@ class TsdGrid:
         """Index of the last node below the mean plane."""
         return int(np.searchsorted(self.zf, 0.0)) - 1
 
+    @property
+    def stations(self) -> np.ndarray:
+        """[S, 3] planform stations (y, x_le, chord; c_ref units) from root to tip, the kinks between."""
+        tip = (self.semispan, self.semispan * self.tan_sweep, self.taper)
+        return np.vstack([[0.0, 0.0, 1.0], np.reshape(self.kinks, (-1, 3)), [tip]])
+
     def chord(self, y: np.ndarray) -> np.ndarray:
         """Local chord (c_ref units) of the mapping at y (frozen beyond the tip)."""
-        eta = np.minimum(np.asarray(y, dtype=float) / self.semispan, 1.0)
-        return 1.0 + (self.taper - 1.0) * eta
+        if len(self.kinks) == 0:
+            eta = np.minimum(np.asarray(y, dtype=float) / self.semispan, 1.0)
+            return 1.0 + (self.taper - 1.0) * eta
+        st = self.stations
+        return np.interp(np.asarray(y, dtype=float), st[:, 0], st[:, 2])
 
     def x_le(self, y: np.ndarray) -> np.ndarray:
         """Leading-edge x (c_ref units) of the mapping at y (frozen beyond the tip)."""
-        return np.minimum(np.asarray(y, dtype=float), self.semispan) * self.tan_sweep
+        if len(self.kinks) == 0:
+            return np.minimum(np.asarray(y, dtype=float), self.semispan) * self.tan_sweep
+        st = self.stations
+        return np.interp(np.asarray(y, dtype=float), st[:, 0], st[:, 1])
+
+    def _slopes(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(x_le', c') at y inside the span, the mean of both sides at a kink (c_ref units per c_ref)."""
+        st = self.stations
+        dxle, dc = np.diff(st[:, 1]) / np.diff(st[:, 0]), np.diff(st[:, 2]) / np.diff(st[:, 0])
+        right = np.clip(np.searchsorted(st[:, 0], y, side="right") - 1, 0, dc.size - 1)
+        left = np.clip(np.searchsorted(st[:, 0], y, side="left") - 1, 0, dc.size - 1)
+        return 0.5 * (dxle[left] + dxle[right]), 0.5 * (dc[left] + dc[right])
 
     def xi_y(self, xi: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Metric d(xi)/dy = -(x_le' + xi c') / c at (xi, y); averaged over both sides at the tip."""
+        """Metric d(xi)/dy = -(x_le' + xi c') / c at (xi, y); averaged over both sides at the tip and kinks."""
         xi, y = np.broadcast_arrays(np.asarray(xi, float), np.asarray(y, float))
         c = self.chord(y)
-        inboard = -(self.tan_sweep + xi * (self.taper - 1.0) / self.semispan) / c
+        dxle, dc = self._slopes(y)
+        inboard = -(dxle + xi * dc) / c
         val = np.where(y < self.semispan, inboard, 0.0)
         return np.where(np.isclose(y, self.semispan), 0.5 * inboard, val)
 
@@ -170,8 +192,10 @@ def _z_faces(spec: GridSpec) -> np.ndarray:
     return np.concatenate((-half[::-1], half[1:]))
 
 
-def wing_grid(semispan: float, taper: float, tan_sweep: float, spec: GridSpec | None = None) -> TsdGrid:
-    """Sheared grid for a trapezoidal half wing (semispan and chords in root chords) with a root symmetry plane."""
+def wing_grid(semispan: float, taper: float, tan_sweep: float, spec: GridSpec | None = None,
+              kinks: np.ndarray | None = None) -> TsdGrid:
+    """Sheared grid for a trapezoidal half wing (semispan and chords in root chords) with a root symmetry plane;
+    ``kinks`` [K, 3] (y, x_le, chord in root chords) make it a cranked one."""
     spec = spec or GridSpec()
     if not (math.isfinite(semispan) and semispan > 0):
         raise InputError("planform.semispan", f"must be > 0, got {semispan!r}")
@@ -181,7 +205,8 @@ def wing_grid(semispan: float, taper: float, tan_sweep: float, spec: GridSpec | 
     out = geometric_faces(h_tip, (spec.y_outboard - 1.0) * semispan, spec.n_outboard)
     yf = np.concatenate((wing_y, semispan + out[1:]))
     return TsdGrid(xf=_xi_faces(spec), yf=yf, zf=_z_faces(spec), semispan=float(semispan),
-                   tan_sweep=float(tan_sweep), taper=float(taper), lateral_far=True)
+                   tan_sweep=float(tan_sweep), taper=float(taper), lateral_far=True,
+                   kinks=np.zeros((0, 3)) if kinks is None else np.reshape(np.asarray(kinks, float), (-1, 3)))
 
 
 def airfoil_grid(spec: GridSpec | None = None) -> TsdGrid:

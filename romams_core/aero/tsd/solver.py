@@ -82,7 +82,7 @@ def mesh_interpolation(mesh: StandardMesh, xi: np.ndarray, eta: np.ndarray) -> s
     """Sparse [K, N] bilinear interpolation of standard-mesh nodal values at chord/span fractions xi, eta."""
     nc, ns = mesh.n_chord, mesh.n_span
     s = np.clip(np.asarray(xi, float), 0.0, 1.0) * nc
-    t = np.clip(np.asarray(eta, float), 0.0, 1.0) * ns
+    t = np.interp(np.asarray(eta, float), mesh.eta, np.arange(ns + 1.0))  # node rows need not be equally spaced
     i = np.minimum(np.floor(s).astype(int), nc - 1)
     j = np.minimum(np.floor(t).astype(int), ns - 1)
     fs, ft = s - i, t - j
@@ -183,7 +183,9 @@ class TsdSolver:
     def build_grid(self, mesh: StandardMesh) -> TsdGrid:
         """Sheared grid of the mesh's planform (root chord units)."""
         pf = mesh.planform
-        return wing_grid(pf.semispan / pf.c_ref, pf.tip_chord / pf.root_chord, math.tan(pf.sweep_le), self.grid)
+        kinks = np.reshape(np.asarray(pf.kinks, dtype=float), (-1, 3)) / pf.c_ref
+        return wing_grid(pf.semispan / pf.c_ref, pf.tip_chord / pf.root_chord, math.tan(pf.sweep_le), self.grid,
+                         kinks)
 
     def _thickness_slope(self, grid: TsdGrid) -> np.ndarray:
         """[ni] half-thickness slope d(tau)/dx on the wing nodes (cell averages; zero off the chord)."""
