@@ -9,7 +9,8 @@ the basis shapes in the basis' order: the table cannot be checked against them, 
 
 File formats (``read_gaf_npz``, ``read_gaf_csv``; ``gaf_npz`` writes the first):
 - NPZ: ``k`` [nk], ``gaf_real`` and ``gaf_imag`` [nk, m, m] (or one complex ``gaf``), ``mach`` (a scalar);
-- CSV: header ``k,row,col,real,imag``, one line per entry (rows and columns from 0), the Mach number given apart.
+- CSV: header ``k,row,col,real,imag``, one line per entry (rows and columns from 0), the Mach number given apart;
+- Nastran's QHH from an OUTPUT4 or a punch file: ``romams_core.nastran.qhh`` (the Mach and k list given apart).
 """
 
 from __future__ import annotations
@@ -34,11 +35,13 @@ CSV_COLUMNS = ("k", "row", "col", "real", "imag")
 
 @dataclass(frozen=True)
 class GafTable:
-    """GAC matrices H [nk, m, m] (m^3, complex) at reduced frequencies k [nk] (semichord) and one Mach number."""
+    """GAC matrices H [nk, m, m] (m^3, complex) at reduced frequencies k [nk] (semichord) and one Mach number;
+    ``source``: where it came from, when a reader knows more than the caller (e.g. a Nastran QHH's layout)."""
 
     mach: float
     k_values: np.ndarray
     gaf: np.ndarray
+    source: str = ""
 
     @property
     def n_shapes(self) -> int:

@@ -120,6 +120,49 @@ def test_gaf_table_export_import_and_flutter_with_the_imported_model(data_dir):
     assert res.exit_code == 2 and "--solver" in res.output and "import" in res.output
 
 
+def test_nastran_qhh_op4_import_from_the_cli(data_dir):
+    """The DLM ROM's table written as Nastran's QHH (an ASCII OUTPUT4 of h rows and h x nk columns) and imported
+    with ``--gaf qhh.op4 --mach 0.87 --k-values ...`` flutters like the DLM ROM; a missing k list or a wrong
+    matrix name is a usage error naming the option, and nothing is stored."""
+    from pyNastran.op4.op4 import write_op4
+
+    from romams.pipeline import cli_models, resolve_wing, rom_identity
+    from romams.services.evaluation import evaluate_structure_summary
+
+    runner = CliRunner()
+    npz = data_dir / "dlm_M0.87.npz"
+    res = runner.invoke(app, ["train", "--mach", "0.87", "--lattice-refine", "1", "--export-gaf", str(npz)])
+    assert res.exit_code == 0, res.output
+    with np.load(npz) as z:
+        k, gaf = z["k"], z["gaf_real"] + 1j * z["gaf_imag"]
+    op4 = data_dir / "qhh.op4"
+    write_op4(str(op4), {"QHH": (2, np.hstack(list(gaf)))}, is_binary=False, precision="double")
+    k_text = ",".join(repr(float(x)) for x in k)
+    st = open_store()
+    wid, w = resolve_wing(st, "cropped-delta")
+    n_roms = len(st.roms.of_wing(wid))
+    for args, hint in ((["--mach", "0.87"], "--k-values"),
+                       (["--mach", "0.87", "--k-values", k_text, "--matrix", "KHH"], "--matrix"),
+                       (["--mach", "0.87", "--k-values", k_text[: k_text.rindex(",")]], "--k-values"),
+                       (["--k-values", k_text], "--mach")):
+        res = runner.invoke(app, ["train", "--gaf", str(op4), "--label", "nas", *args])
+        assert res.exit_code == 2 and hint in res.output, res.output
+    res = runner.invoke(app, ["train", "--matrix", "QHH"])  # QHH settings without a --gaf file
+    assert res.exit_code == 2 and "--matrix" in res.output, res.output
+    assert len(st.roms.of_wing(wid)) == n_roms
+    res = runner.invoke(app, ["train", "--gaf", str(op4), "--label", "nas", "--mach", "0.87", "--k-values", k_text,
+                              "--json"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["solver"] == "external:nas"
+    res = runner.invoke(app, ["flutter", "--baseline", "--mach", "0.87", "--solver", "external:nas", "--json"])
+    assert res.exit_code == 0, res.output
+    (r_ext,) = json.loads(res.stdout)["results"]
+    models = cli_models(st, wid, w, [0.87], rom_identity("dlm", options={"lattice_refine": 1}))
+    (r_dlm,) = evaluate_structure_summary(models)[0]["results"]
+    assert r_ext["flutter_mode"] == r_dlm["flutter_mode"]
+    assert r_ext["q_flutter_pa"] == pytest.approx(r_dlm["q_flutter_pa"], rel=1e-9)  # the issue asks 0.1 %
+
+
 def test_external_cfd_package_round_trip_from_the_cli(data_dir):
     """``romams train --export-package`` -> the UVLM run as the external code on the package's files -> ``romams
     train --gac FILE --label L --settings settings.json`` -> ``romams flutter --solver external:L``."""

@@ -16,28 +16,60 @@ from api.problems import Problem, invalid
 from api.responses import BasisOut, RomOut, ok
 from api.routes.wings import _basis_or_404, _basis_wing
 from api.schemas import SnapshotBasisRequest
-from romams.services.gaf_import import LABEL, MAX_TABLE_BYTES, import_table, parse_table
+from romams.services.gaf_import import LABEL, MAX_TABLE_BYTES, QHH_FIELDS, import_table, parse_k_list, parse_table
 from romams.services.models import resolve_basis_id
 from romams_core.aero.protocol import check_mach
 
 router = APIRouter(tags=["wings"], responses=READ)
 
 #: the text fields of a table upload (besides the file ``file``)
-TABLE_FIELDS = ("label", "mach", "basis_id", "n_lags")
+TABLE_FIELDS = ("label", "mach", "basis_id", "n_lags", *QHH_FIELDS)
+#: the largest Mach block index and mode count to skip of a Nastran QHH upload
+MAX_QHH_INDEX = 10_000
 TABLE_BODY = {"requestBody": {"required": True, "content": {"multipart/form-data": {"schema": {
     "type": "object", "required": ["file", "label"], "additionalProperties": False,
     "description": "a GAF table computed on the basis shapes (in the basis' order): NPZ with k, gaf_real, gaf_imag "
-                   "[nk, m, m] (m^3 per unit generalized displacement, k on the semichord) and mach; or CSV with the "
-                   "header k,row,col,real,imag (then mach is required)",
+                   "[nk, m, m] (m^3 per unit generalized displacement, k on the semichord) and mach; CSV with the "
+                   "header k,row,col,real,imag (then mach is required); or Nastran's QHH (excluding the dynamic "
+                   "pressure) from an OUTPUT4 file (.op4, ASCII or binary) or a punch file of DMIG cards (.pch): "
+                   "h rows and h columns per m-k pair, the pairs in MKAERO1 order (every k of a Mach, then the next "
+                   "Mach), as one wide matrix or one matrix per pair; then mach and k_values are required",
     "properties": {
         "file": {"type": "string", "format": "binary"},
         "label": {"type": "string", "pattern": f"^{LABEL.pattern}$",
                   "description": "the table's name: its ROM's solver is external:<label>"},
         "mach": {"type": "number", "minimum": 0, "exclusiveMaximum": 1,
-                 "description": "the Mach number (required for a CSV table; an NPZ table carries its own)"},
+                 "description": "the Mach number (required for a CSV table and a Nastran QHH; an NPZ table carries "
+                                "its own)"},
         "basis_id": {"type": "integer", "minimum": 1, "description": "the basis (default: the wing's active one)"},
         "n_lags": {"type": "integer", "minimum": 0, "maximum": 12,
-                   "description": "RFA lag roots (default: automatic, as for the DLM)"}}}}}}}
+                   "description": "RFA lag roots (default: automatic, as for the DLM)"},
+        "k_values": {"type": "string", "description": "Nastran QHH only (required): the MKAERO1 reduced frequencies "
+                                                      "of one Mach, in the card's order, separated by commas "
+                                                      "(Nastran's k, on REFC/2)"},
+        "matrix": {"type": "string", "pattern": "^[A-Za-z][A-Za-z0-9_]{0,7}$",
+                   "description": "Nastran QHH only: the matrix name (default QHH)"},
+        "mach_index": {"type": "integer", "minimum": 0, "maximum": MAX_QHH_INDEX,
+                       "description": "Nastran QHH only: which Mach block of the file, from 0 (default 0)"},
+        "skip_modes": {"type": "integer", "minimum": 0, "maximum": MAX_QHH_INDEX,
+                       "description": "Nastran QHH only: leading modes (rows and columns) that are not basis shapes, "
+                                      "dropped (default 0); the rest must be the basis shapes in their order"},
+        "refc": {"type": "number", "exclusiveMinimum": 0,
+                 "description": "Nastran QHH only: the AERO card's REFC (m); k is rescaled by c_ref / REFC "
+                                "(default: the wing's recorded REFC, else its c_ref: no rescaling)"}}}}}}}
+
+
+def _qhh_fields(text: dict[str, str]) -> dict[str, Any]:
+    """The Nastran QHH settings of a table upload (None where absent; 422 naming a malformed one)."""
+    refc = text.get("refc") or ""
+    try:
+        length = float(refc) if refc else None
+    except ValueError:
+        raise invalid("refc", f"must be a length in m, got {refc[:20]!r}") from None
+    return {"k_values": parse_k_list(text["k_values"]) if text.get("k_values") else None,
+            "matrix": text.get("matrix") or None, "refc": length,
+            "mach_index": form_int(text, "mach_index", 0, MAX_QHH_INDEX),
+            "skip_modes": form_int(text, "skip_modes", 0, MAX_QHH_INDEX)}
 
 
 def _mach_field(text: dict[str, str]) -> float:
@@ -94,9 +126,10 @@ def basis_shapes_npz(basis_id: int, svc: Service = Depends(service)) -> Response
              responses={**WRITE, **WING, **problems(409, 413), **ok(RomOut, "the ROM fitted to the table", 201)},
              openapi_extra=TABLE_BODY)
 async def import_gaf_table(wing: str, request: Request, svc: Service = Depends(service)) -> dict[str, Any]:
-    """Import a GAF table (your CFD's or doublet lattice's forces on the basis shapes) as the ROM of solver
-    ``external:<label>`` at its Mach number: fitted by the DLM's rational function approximation, replacing an
-    earlier table of that label and Mach; flutter requests use it with ``"solver": "external:<label>"``."""
+    """Import a GAF table (your CFD's or doublet lattice's forces on the basis shapes, or Nastran's QHH from an
+    OUTPUT4 or punch file) as the ROM of solver ``external:<label>`` at its Mach number: fitted by the DLM's
+    rational function approximation, replacing an earlier table of that label and Mach; flutter requests use it
+    with ``"solver": "external:<label>"``."""
     wid, wdef = wing_or_404(svc, wing)
     data, filename, text = await _read_form(request)
     no_nul(text, "form")
@@ -105,7 +138,10 @@ async def import_gaf_table(wing: str, request: Request, svc: Service = Depends(s
     mach = _mach_field(text) if text.get("mach") else None
     basis_id = resolve_basis_id(svc.store, wid, form_int(text, "basis_id", 1, 2**53))
     n_lags = form_int(text, "n_lags", 0, 12)
-    table = parse_table(data, filename, mach)
+    try:
+        table = await run_in_threadpool(parse_table, data, filename, mach, _qhh_fields(text), wdef)
+    except ImportError as exc:
+        raise Problem(501, "file: Nastran support (pyNastran) is not installed on this server", "file") from exc
     basis = svc.store.bases.load(basis_id)
     fit = {} if n_lags is None else {"n_lags": n_lags}
     rom_id, _ = await run_in_threadpool(import_table, svc.store, wid, wdef, basis_id, basis, table, text["label"],

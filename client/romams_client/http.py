@@ -314,11 +314,15 @@ class RomamsClient:
             return {k: z[k] for k in z.files}
 
     def import_gaf(self, wing: WingRef, table: bytes | str | Path, label: str, *, mach: float | None = None,
-                   basis_id: int | None = None, n_lags: int | None = None, filename: str | None = None
+                   basis_id: int | None = None, n_lags: int | None = None, filename: str | None = None,
+                   k_values: Sequence[float] | None = None, matrix: str | None = None,
+                   mach_index: int | None = None, skip_modes: int | None = None, refc: float | None = None
                    ) -> dict[str, Any]:
-        """Upload a GAF table computed on the basis shapes (NPZ: k, gaf_real, gaf_imag [nk, m, m], mach; or CSV
-        k,row,col,real,imag with ``mach``; bytes or a file path) as the ROM of solver ``external:<label>``;
-        returns the ROM. Flutter requests use it with ``solver="external:<label>"`` (docs: Your own GAF tables)."""
+        """Upload a GAF table computed on the basis shapes (NPZ: k, gaf_real, gaf_imag [nk, m, m], mach; CSV
+        k,row,col,real,imag with ``mach``; or Nastran's QHH from an OUTPUT4 (.op4) or punch (.pch) file with
+        ``mach`` and ``k_values``, the MKAERO1 k list, and optionally ``matrix``, ``mach_index``, ``skip_modes``,
+        ``refc`` (m); bytes or a file path) as the ROM of solver ``external:<label>``; returns the ROM. Flutter
+        requests use it with ``solver="external:<label>"`` (docs: Your own GAF tables)."""
         if isinstance(table, bytes):
             data, name = table, filename or "table.npz"
         else:
@@ -331,6 +335,15 @@ class RomamsClient:
             fields["basis_id"] = str(int(basis_id))
         if n_lags is not None:
             fields["n_lags"] = str(int(n_lags))
+        if k_values is not None:
+            fields["k_values"] = ",".join(repr(float(k)) for k in k_values)
+        if matrix is not None:
+            fields["matrix"] = str(matrix)
+        for key, value in (("mach_index", mach_index), ("skip_modes", skip_modes)):
+            if value is not None:
+                fields[key] = str(int(value))
+        if refc is not None:
+            fields["refc"] = repr(float(refc))
         return self.request("POST", f"/wings/{self._ref(wing)}/roms/gaf", files={"file": (name, data)},
                             data=fields).json()
 

@@ -50,9 +50,19 @@ def train_command(
                                             "multiplied by this (0.25-4; 0.5 is a quick run)"),
     linearity_check: bool = typer.Option(False, "--linearity-check", help="tsd: rerun at half amplitude and report "
                                          "the deviation from linear scaling"),
-    gaf: Path | None = typer.Option(None, "--gaf", help="import a GAF table (NPZ or CSV, computed on the basis "
-                                    "shapes) as the ROM of solver external:LABEL instead of training one"),
+    gaf: Path | None = typer.Option(None, "--gaf", help="import a GAF table (NPZ, CSV, or Nastran's QHH from an "
+                                    "OUTPUT4 .op4 or punch .pch file, computed on the basis shapes) as the ROM of "
+                                    "solver external:LABEL instead of training one"),
     label: str | None = typer.Option(None, "--label", help="with --gaf: the table's name (solver external:LABEL)"),
+    k_values: str | None = typer.Option(None, "--k-values", help="with a QHH --gaf: the MKAERO1 reduced "
+                                        "frequencies (Nastran's k on REFC/2), e.g. 0.001,0.05,0.1"),
+    matrix: str | None = typer.Option(None, "--matrix", help="with a QHH --gaf: the matrix name (default QHH)"),
+    mach_index: int | None = typer.Option(None, "--mach-index", min=0, help="with a QHH --gaf: the Mach block "
+                                          "(0 = the MKAERO1 card's first Mach; default 0)"),
+    skip_modes: int | None = typer.Option(None, "--skip-modes", min=0, help="with a QHH --gaf: leading modes "
+                                          "(rows and columns) that are not basis shapes (default 0)"),
+    refc: float | None = typer.Option(None, "--refc", help="with a QHH --gaf: the AERO card's REFC (m); k is "
+                                      "rescaled by c_ref / REFC (default: the wing's recorded REFC, else c_ref)"),
     export_gaf: Path | None = typer.Option(None, "--export-gaf", help="write the ROM's GAF table (NPZ) here"),
     export_package: Path | None = typer.Option(None, "--export-package", help="write the external-CFD training "
                                                "package (zip: excitation, shapes, settings.json, README) of the "
@@ -70,6 +80,10 @@ def train_command(
 
     if solver not in SOLVERS:
         raise typer.BadParameter(f"unknown solver {solver!r}; one of {', '.join(SOLVERS)}", param_hint="--solver")
+    qhh = {"k_values": k_values, "matrix": matrix, "mach_index": mach_index, "skip_modes": skip_modes, "refc": refc}
+    if gaf is None and any(v is not None for v in qhh.values()):
+        raise typer.BadParameter("applies to a Nastran QHH table imported with --gaf", param_hint="--k-values/--matrix"
+                                 "/--mach-index/--skip-modes/--refc")
     options: dict[str, Any] = {}
     red = _reduce_option(reduce)
     if red is not None:
@@ -118,7 +132,7 @@ def train_command(
             rom_id, rom = _import_gac(store, wing_id, w, basis_id, basis, gac, label, mach, settings_file)
         else:
             assert gaf is not None
-            rom_id, rom = _import_gaf(store, wing_id, w, basis_id, basis, gaf, label, mach, options)
+            rom_id, rom = _import_gaf(store, wing_id, w, basis_id, basis, gaf, label, mach, options, qhh)
     else:
         mach = 0.87 if mach is None else mach
         try:
@@ -234,20 +248,26 @@ def _is_rfa(rom: Any) -> bool:
 
 
 def _import_gaf(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, path: Path, label: str,
-                mach: float | None, options: dict[str, Any]) -> tuple[int, Any]:
-    """(rom_id, ROM) of an imported GAF table (``romams.services.gaf_import``), usage errors naming the option."""
-    from romams.services.gaf_import import import_table, parse_table
+                mach: float | None, options: dict[str, Any], qhh: dict[str, Any]) -> tuple[int, Any]:
+    """(rom_id, ROM) of an imported GAF table (``romams.services.gaf_import``; ``qhh``: the settings of a Nastran
+    QHH file, None where not given), usage errors naming the option."""
+    from romams.services.gaf_import import QHH_FIELDS, import_table, parse_k_list, parse_table
 
     fit = {k: v for k, v in options.items() if k in ("n_lags", "reduce_order")}
     extra = sorted(set(options) - set(fit))
     if extra:
         raise typer.BadParameter(f"{', '.join(extra)}: not settings of an imported table", param_hint="--gaf")
-    hints = {"label": "--label", "mach": "--mach", "n_lags": "--n-lags", "reduce_order": "--reduce"}
+    hints = {"label": "--label", "mach": "--mach", "n_lags": "--n-lags", "reduce_order": "--reduce",
+             **{k: "--" + k.replace("_", "-") for k in QHH_FIELDS}}
     try:
-        table = parse_table(path.read_bytes(), path.name, mach)
+        if qhh.get("k_values") is not None:
+            qhh = {**qhh, "k_values": parse_k_list(qhh["k_values"])}
+        table = parse_table(path.read_bytes(), path.name, mach, qhh, wing)
         return import_table(store, wing_id, wing, basis_id, basis, table, label, **fit)
     except OSError as exc:
         raise typer.BadParameter(f"cannot read {path.name}: {exc.strerror}", param_hint="--gaf") from None
+    except ImportError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--gaf") from None
     except ServiceError as exc:
         raise typer.BadParameter(exc.reason, param_hint=hints.get(str(exc.field), f"--gaf ({exc.field})")) from None
 

@@ -105,6 +105,58 @@ def test_malformed_uploads_are_refused_and_store_nothing(svc, monkeypatch):
     assert svc.client.get(f"/api/v1/wings/{svc.wing_id}/roms").json() == before
 
 
+def _op4(table: GafTable, name: str = "QHH") -> bytes:
+    """The table as Nastran's QHH: an ASCII OUTPUT4 of h rows and h x nk columns (pyNastran's writer)."""
+    import io
+
+    from pyNastran.op4.op4 import write_op4
+
+    out = io.StringIO()
+    write_op4(out, {name: (2, np.hstack(list(table.gaf)))}, is_binary=False, precision="double")
+    return out.getvalue().encode()
+
+
+def test_nastran_qhh_op4_upload_flutters_like_the_dlm_rom(svc):
+    """The service's DLM table uploaded as a Nastran QHH OUTPUT4 with its Mach and k list: the same flutter point;
+    a wrong matrix name, a k list that does not fit the columns, a NaN, a missing k list or Mach are 422 problems
+    naming the field, and store nothing."""
+    import tempfile
+
+    table = _dlm_table(svc, 0.87)
+    k_text = ",".join(repr(float(x)) for x in table.k_values)
+    url = f"/api/v1/wings/{svc.wing_id}/roms"
+    before = svc.client.get(url).json()
+    nan = GafTable(0.87, table.k_values, table.gaf.copy())
+    nan.gaf[2, 1, 0] = np.nan
+    data = _op4(table)
+    cases = [
+        (_upload(svc, data, "qhh.op4", label="nas", mach=0.87, k_values=k_text, matrix="QHHL"), "matrix"),
+        (_upload(svc, data, "qhh.op4", label="nas", mach=0.87, k_values=k_text[: k_text.rindex(",")]), "k_values"),
+        (_upload(svc, _op4(nan), "qhh.op4", label="nas", mach=0.87, k_values=k_text), "gaf"),
+        (_upload(svc, data, "qhh.op4", label="nas", mach=0.87), "k_values"),
+        (_upload(svc, data, "qhh.op4", label="nas", k_values=k_text), "mach"),
+        (_upload(svc, data, "qhh.op4", label="nas", mach=0.87, k_values="0.1,fast"), "k_values"),
+        (_upload(svc, data, "qhh.op4", label="nas", mach=0.87, k_values=k_text, mach_index=1), "mach_index"),
+        (_upload(svc, data, "qhh.op4", label="nas", mach=0.87, k_values=k_text, refc="-1"), "refc"),
+        (_upload(svc, gaf_npz(table), label="nas", k_values=k_text), "k_values"),  # not a Nastran file
+    ]
+    for r, field in cases:
+        _problem(r, 422, field)
+        assert tempfile.gettempdir() not in r.text and "romams-op4" not in r.text
+    assert svc.client.get(url).json() == before
+    r = _upload(svc, data, "qhh.op4", label="nas", mach=0.87, k_values=k_text)
+    assert r.status_code == 201, r.text
+    rom = r.json()
+    assert rom["solver"] == "external:nas" and rom["mach"] == 0.87
+    flutter = f"/api/v1/wings/{svc.wing_id}/flutter"
+    ext = svc.client.post(flutter, json={"design": DESIGN, "machs": [0.87], "solver": "external:nas", "store": False})
+    ref = svc.client.post(flutter, json={"design": DESIGN, "machs": [0.87], "solver": "dlm", "store": False})
+    assert ext.status_code == 200 and ref.status_code == 200, (ext.text, ref.text)
+    (e,), (d,) = ext.json()["results"], ref.json()["results"]
+    assert e["rom_id"] == rom["id"] and e["flutter_mode"] == d["flutter_mode"]
+    assert e["q_flutter_pa"] == pytest.approx(d["q_flutter_pa"], rel=1e-9)  # the issue asks 0.1 %
+
+
 def test_external_cfd_package_and_gac_upload(svc):
     """GET .../external-package, the UVLM run as the external code, POST .../roms/gac: a stored ARX ROM of solver
     external:<label> that flutter requests use; bad uploads name the field and store nothing."""
