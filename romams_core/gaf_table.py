@@ -157,3 +157,15 @@ class TableSolver:
         if progress is not None:
             progress(1.0, "table read")
         return self.table.gaf[pos]
+
+
+def on_mass_normalized_modes(table: GafTable, generalized_masses: Any) -> GafTable:
+    """The table of modes phi with generalized masses m (kg m^2 per unit coordinate) on the mass-normalized modes
+    phi / sqrt(m): H_ij / sqrt(m_i m_j) (m^3 per unit mass-normalized coordinate); None: already normalized."""
+    if generalized_masses is None:
+        return table
+    m = np.asarray(generalized_masses, dtype=float)
+    if m.shape != (table.n_shapes,) or not np.all(np.isfinite(m)) or np.any(m <= 0):
+        raise InputError("generalized_masses", f"expected {table.n_shapes} finite masses > 0, got {m.tolist()[:6]}")
+    s = 1.0 / np.sqrt(m)
+    return GafTable(mach=table.mach, k_values=table.k_values, gaf=table.gaf * s[None, :, None] * s[None, None, :])

@@ -6,7 +6,7 @@ import importlib
 
 from romams.cli.app import app
 
-_COMMAND_MODULES = ("modal", "basis", "train", "flutter", "demo", "service", "wing", "keys")
+_COMMAND_MODULES = ("modal", "basis", "train", "flutter", "pk", "demo", "service", "wing", "keys")
 
 for _name in _COMMAND_MODULES:
     try:

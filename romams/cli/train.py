@@ -251,25 +251,43 @@ def _import_gaf(store: Any, wing_id: int, wing: Any, basis_id: int, basis: Any, 
                 mach: float | None, options: dict[str, Any], qhh: dict[str, Any]) -> tuple[int, Any]:
     """(rom_id, ROM) of an imported GAF table (``romams.services.gaf_import``; ``qhh``: the settings of a Nastran
     QHH file, None where not given), usage errors naming the option."""
-    from romams.services.gaf_import import QHH_FIELDS, import_table, parse_k_list, parse_table
+    from romams.services.gaf_import import import_table
 
     fit = {k: v for k, v in options.items() if k in ("n_lags", "reduce_order")}
     extra = sorted(set(options) - set(fit))
     if extra:
         raise typer.BadParameter(f"{', '.join(extra)}: not settings of an imported table", param_hint="--gaf")
+    table = read_table(path, mach, qhh, wing)
+    try:
+        return import_table(store, wing_id, wing, basis_id, basis, table, label, **fit)
+    except ServiceError as exc:
+        raise typer.BadParameter(exc.reason, param_hint=_table_hint(exc.field)) from None
+
+
+def _table_hint(field: str | None) -> str:
+    """The option that sets a table field (its QHH settings are --k-values, --matrix, ...)."""
+    from romams.services.gaf_import import QHH_FIELDS
+
     hints = {"label": "--label", "mach": "--mach", "n_lags": "--n-lags", "reduce_order": "--reduce",
              **{k: "--" + k.replace("_", "-") for k in QHH_FIELDS}}
+    return hints.get(str(field), f"--gaf ({field})")
+
+
+def read_table(path: Path, mach: float | None, qhh: dict[str, Any], wing: Any) -> Any:
+    """The GafTable of a table file (NPZ, CSV, Nastran OP4 / punch QHH with the ``qhh`` settings, None where not
+    given; ``wing`` for a QHH's reference chord), usage errors naming the option."""
+    from romams.services.gaf_import import parse_k_list, parse_table
+
     try:
         if qhh.get("k_values") is not None:
             qhh = {**qhh, "k_values": parse_k_list(qhh["k_values"])}
-        table = parse_table(path.read_bytes(), path.name, mach, qhh, wing)
-        return import_table(store, wing_id, wing, basis_id, basis, table, label, **fit)
+        return parse_table(path.read_bytes(), path.name, mach, qhh, wing)
     except OSError as exc:
         raise typer.BadParameter(f"cannot read {path.name}: {exc.strerror}", param_hint="--gaf") from None
     except ImportError as exc:
         raise typer.BadParameter(str(exc), param_hint="--gaf") from None
     except ServiceError as exc:
-        raise typer.BadParameter(exc.reason, param_hint=hints.get(str(exc.field), f"--gaf ({exc.field})")) from None
+        raise typer.BadParameter(exc.reason, param_hint=_table_hint(exc.field)) from None
 
 
 def _write_plots(directory: Path, rom: Any) -> list[str]:
