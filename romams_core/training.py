@@ -155,7 +155,7 @@ def train_rom(
     ``order_fallbacks``: further (na, nb) tried in turn on the same records when (na, nb) misses nrmse_tol; the
     first that meets it is kept (with a note), else the error names the best one.
     ``symmetry``: the root plane's (symmetric, antisymmetric, none: a free wing) for a solver that models it
-    (``UvlmSolver.symmetry``); None keeps the solver's.
+    (``UvlmSolver.symmetry``, ``TsdSolver.symmetry``); None keeps the solver's.
     """
     t_start = time.perf_counter()
     mach = check_mach(mach)

@@ -9,18 +9,18 @@ locally linear regime. The ROM is linear about the steady transonic mean flow, w
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
-from romams_core.aero.protocol import ProgressFn
+from romams_core.aero.protocol import ProgressFn, image_sign
 from romams_core.aero.tsd import TsdSolver
 from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS
 from romams_core.aero.tsd.grid import GridSpec
 from romams_core.aero.tsd.solver import MIN_WING_COLUMNS_PER_SHAPE, check_thickness
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
-from romams_core.training import TrainedRom, train_rom
+from romams_core.training import TrainedRom, train_rom, with_symmetry
 from romams_core.validation import check_number
 
 #: linearity of the GAC under halving the excitation amplitude, at most (relative L2)
@@ -47,9 +47,11 @@ def tsd_grid_spec(grid_scale: float = 1.0) -> GridSpec:
 
 def check_tsd_settings(n_shapes: int | None = None, *, thickness_form: str | None = None,
                        thickness_to_chord: float = 0.0, grid_scale: float = 1.0, tsd_dt: float = 0.02,
-                       coefficients: str = "ames", **_: Any) -> None:
+                       coefficients: str = "ames", symmetry: str | None = None, **_: Any) -> None:
     """Validate TSD training settings (InputError naming the field); ``n_shapes`` also checks the grid size."""
     check_thickness(thickness_form, thickness_to_chord)
+    if symmetry is not None:
+        image_sign(symmetry)
     spec = tsd_grid_spec(grid_scale)
     if coefficients not in COEFFICIENT_SETS:
         raise InputError("coefficients", f"must be one of {COEFFICIENT_SETS}, got {coefficients!r}")
@@ -93,6 +95,7 @@ def train_tsd_rom(
     reduce_order: int | str | None = "auto",
     linearity_check: bool = False,
     progress: ProgressFn | None = None,
+    symmetry: str | None = None,
 ) -> TrainedRom:
     """ARX ROM of the TSD solver for shapes [N, m] (m) at ``mach`` about the steady mean flow of the section.
 
@@ -101,12 +104,15 @@ def train_tsd_rom(
     ``nrmse_tol`` is 5 % (the UVLM's is 2 %): at high subsonic Mach the compressible response has a long memory
     (slow upstream acoustic waves) that an ARX of order 8 free-runs to 1.5-3 % on an 8-shape basis (measured on
     the cropped delta at M 0.87); above 2 % the ROM carries a warning.
+    ``symmetry``: the root plane's (symmetric, antisymmetric, none: a free wing; ``TsdSolver.symmetry``); None
+    keeps the solver's.
     """
     shapes = np.asarray(shapes, dtype=float)
     m = shapes.shape[1] if shapes.ndim == 2 else 1
     check_tsd_settings(m, thickness_form=thickness_form, thickness_to_chord=thickness_to_chord,
-                       grid_scale=grid_scale, tsd_dt=tsd_dt, coefficients=coefficients)
+                       grid_scale=grid_scale, tsd_dt=tsd_dt, coefficients=coefficients, symmetry=symmetry)
     solver = solver or make_tsd_solver(thickness_form, thickness_to_chord, grid_scale, tsd_dt, coefficients)
+    solver = cast(TsdSolver, with_symmetry(solver, symmetry))  # replaced before the run: its mean flow is read below
     if n_steps is None:
         n_steps = tsd_n_steps(m, na, nb, dt_star)
     rom = train_rom(mesh, shapes, mach, solver, na=na, nb=nb, k_max=k_max, n_steps=n_steps, dt_star=dt_star,

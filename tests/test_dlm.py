@@ -322,13 +322,11 @@ def test_root_symmetry_matches_an_explicit_full_span_lattice(symmetry):
     assert e.value.field == "symmetry"
 
 
-def test_wing_symmetry_reaches_the_dlm_training_and_the_tsd_refuses_it():
+def test_wing_symmetry_reaches_the_dlm_training():
     """A wing's root symmetry is part of a dlm ROM's identity and reaches its lattice (and of a uvlm ROM's:
-    tests/test_uvlm_symmetry.py); the tsd, which solves the symmetric half wing only, refuses such a wing naming
-    ``solver``."""
+    tests/test_uvlm_symmetry.py; of a tsd ROM's: tests/test_tsd_symmetry.py)."""
     import dataclasses
 
-    from romams.services.errors import InvalidInput
     from romams.services.training import rom_identity, train
     from romams_core.wing import template
 
@@ -344,6 +342,4 @@ def test_wing_symmetry_reaches_the_dlm_training_and_the_tsd_refuses_it():
     sym = train(mesh, shapes, 0.5, {**fast, "options": {**fast["options"], "symmetry": "symmetric"}})
     assert abs(rom.gaf[2, 0, 0] - sym.gaf[2, 0, 0]) > 0.05 * abs(sym.gaf[2, 0, 0])  # the image loads it otherwise
     assert rom_identity("uvlm", wing=wing)["options"] == {"symmetry": "antisymmetric"}
-    with pytest.raises(InvalidInput) as e:
-        rom_identity("tsd", wing=wing)
-    assert e.value.field == "solver"
+    assert rom_identity("tsd", wing=wing)["options"]["symmetry"] == "antisymmetric"

@@ -122,8 +122,8 @@ def _jacobians(grid, coef_name, amp, seed=0):
         out = np.zeros(g.shape)
         p1, p2, p3 = f.levels
         kernels.residual(phi, p1, p2, p3, tc, f._co, g.xc, g.xf, g.yc, g.yf, g.zc, g.zf, f._cj, f._cyf, f._xiy_xf,
-                         f._xiy_yf, f._wing, f._wake, f.w_up, f.w_lo, f.gamma, g.k0, g.lateral_far, f._far_u,
-                         f._far_w, f.sponge, out)
+                         f._xiy_yf, f._wing, f._wake, f.w_up, f.w_lo, f.gamma, g.k0, g.lateral_far, g.root_code,
+                         f._c_root, f._far_u, f._far_w, f.sponge, out)
         return out.ravel()
 
     n = g.n_points
@@ -146,7 +146,8 @@ def _jacobians(grid, coef_name, amp, seed=0):
         return np.linalg.inv(inv)
 
     lx = factor(lambda w: kernels.solve_xi(f.phi, w, tc, f._co, g.xc, g.xf, f._cj, f._xiy_xf, f.sponge))
-    le = factor(lambda w: kernels.solve_eta(f.phi, w, tc, f._co, g.xc, g.yc, g.yf, f._cj, f._cyf, g.lateral_far))
+    le = factor(lambda w: kernels.solve_eta(f.phi, w, tc, f._co, g.xc, g.yc, g.yf, f._cj, f._cyf, g.lateral_far,
+                                            g.root_code, f._c_root))
     lz = factor(lambda w: kernels.solve_zeta(w, tc, f._co, g.zc, g.zf, f._wing, g.k0))
     idx = np.array(np.unravel_index(np.arange(n), g.shape)).T
     u = np.diff(f.phi, axis=0) / np.diff(g.xc)[:, None, None] / f._cj[None, :, None]

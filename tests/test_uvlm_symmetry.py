@@ -1,6 +1,6 @@
 """The UVLM's root symmetry (symmetric, antisymmetric, none = a free wing): the image rings and wake are exactly an
 explicitly mirrored lattice, a free wing equals the mirrored half wing of half its span, an antisymmetric loading
-lifts less, and the service trains the uvlm with the wing's symmetry (only the tsd refuses another one)."""
+lifts less, and the service trains the uvlm with the wing's symmetry."""
 
 import dataclasses
 import math
@@ -116,10 +116,10 @@ def test_antisymmetric_loading_lifts_less_than_symmetric():
     assert e.value.field == "symmetry"
 
 
-def test_service_trains_the_uvlm_with_the_wings_symmetry_and_the_tsd_refuses_it(monkeypatch):
+def test_service_trains_the_uvlm_with_the_wings_symmetry(monkeypatch):
     """rom_identity puts a non-symmetric wing's symmetry into a uvlm ROM's options (a symmetric wing's identity is
-    unchanged), the training builds the lattice with it and the DLM damping cross-check uses the same; the tsd
-    refuses the wing naming ``solver``; a bad symmetry option is refused before queueing."""
+    unchanged), the training builds the lattice with it and the DLM damping cross-check uses the same; a bad
+    symmetry option is refused before queueing."""
     from romams.services.errors import InvalidInput
     from romams.services.training import allowed_options, check_options, rom_identity, train
 
@@ -129,9 +129,6 @@ def test_service_trains_the_uvlm_with_the_wings_symmetry_and_the_tsd_refuses_it(
     assert rom_identity("uvlm", wing=template("cropped-delta")) == {"solver": "uvlm", "na": 8, "nb": 8,
                                                                      "options": {}}
     assert "symmetry" in allowed_options("uvlm")
-    with pytest.raises(InvalidInput) as e:
-        rom_identity("tsd", wing=wing)
-    assert e.value.field == "solver" and "symmetric half wing only" in e.value.reason
     with pytest.raises(InvalidInput) as e:
         check_options("uvlm", {"symmetry": "mirrored"})
     assert e.value.field == "options.symmetry"

@@ -181,8 +181,8 @@ def flutter_command(
     except ValueError as exc:  # a core input error (e.g. a planform-only wing without --modes)
         from romams.cli.wing import bad_input
 
-        raise bad_input(exc, {**NASTRAN_HINTS, "design": "--design", "modes": "--modes", "solver": "--solver"},
-                        "--wing") from None
+        raise bad_input(exc, {**NASTRAN_HINTS, "design": "--design", "modes": "--modes", "solver": "--solver",
+                              "mach": "--mach"}, "--wing") from None
     if plot is not None:
         summary["plots"] = write_flutter_plots(plot, result.flutter, plot_axis)
     if as_json:

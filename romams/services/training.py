@@ -25,8 +25,6 @@ DEFAULT_SOLVER = "dlm"
 FREQUENCY_SOLVERS = ("dlm",)
 TIME_SOLVERS = ("uvlm", "tsd")
 SOLVERS = FREQUENCY_SOLVERS + TIME_SOLVERS
-#: solvers that model every root symmetry (symmetric, antisymmetric, none: a free wing) by a mirror image's sign
-SYMMETRY_SOLVERS = ("dlm", "uvlm")
 #: train-function arguments set by the service itself (not allowed in a request's ``options``)
 RESERVED_OPTIONS = frozenset({"mesh", "shapes", "mach", "solver", "na", "nb", "progress"})
 
@@ -89,9 +87,8 @@ def rom_identity(solver: str = DEFAULT_SOLVER, na: int = 8, nb: int = 8,
     """Identity of a trained ROM besides (wing, basis, Mach): the same dict the HTTP API stores.
 
     For the TSD the wing's section (thickness form and t/c, ``section_options``) is part of the identity unless
-    the options name it; for the DLM and the UVLM a root symmetry other than symmetric (antisymmetric, or none: a
-    free wing) is (a symmetric wing's identity names none, as before). The TSD, whose grid has a root symmetry
-    plane, refuses such a wing: InvalidInput naming ``solver``."""
+    the options name it; for every built-in solver (each models all three root conditions) a root symmetry other
+    than symmetric (antisymmetric, or none: a free wing) is (a symmetric wing's identity names none, as before)."""
     if is_frequency_solver(solver) or is_external(solver):
         na = nb = 0  # an imported model is one per (wing, basis, Mach, label): importing again replaces it
     opts = {} if is_external(solver) else dict(options or {})
@@ -99,12 +96,6 @@ def rom_identity(solver: str = DEFAULT_SOLVER, na: int = 8, nb: int = 8,
         opts = {**section_options(wing), **opts}
     symmetry = getattr(wing, "symmetry", "symmetric") if wing is not None else "symmetric"
     if symmetry != "symmetric" and not is_external(solver):
-        if solver not in SYMMETRY_SOLVERS:
-            from romams.services.errors import InvalidInput
-
-            raise InvalidInput("solver", f"the wing is {symmetry!r} about its root; the {solver} solves the "
-                                         f"symmetric half wing only (its grid has a root symmetry plane): use "
-                                         f"{' or '.join(SYMMETRY_SOLVERS)}")
         opts = {**opts, "symmetry": symmetry}
     return {"solver": str(solver), "na": int(na), "nb": int(nb), "options": dict(sorted(opts.items()))}
 

@@ -41,6 +41,8 @@ def sponge_layer(grid: TsdGrid, rate: float, fraction: float = 0.5) -> np.ndarra
     if grid.lateral_far:
         b, ymax = grid.semispan, grid.yf[-1]
         ry = depth(grid.yc, b + (ymax - b) * (1 - fraction), ymax)
+        if grid.root == "open":  # a free wing's lateral far field below the root
+            ry = np.maximum(ry, depth(-grid.yc, -grid.yf[0] * (1 - fraction), -grid.yf[0]))
     else:
         ry = np.zeros(grid.yc.size)
     r = np.maximum(np.maximum(rx[:, None, None], ry[None, :, None]), rz[None, None, :])
@@ -86,6 +88,7 @@ class TsdFlow:
                              self.coef.u_star])
         self._cj = g.chord(g.yc)
         self._cyf = g.chord(g.yf[1:-1]) if nj > 1 else np.ones(1)
+        self._c_root = float(g.chord(np.array(0.0)))  # chord at the root face (the antisymmetric root's flux)
         self._xiy_xf = g.xi_y(g.xf[1:-1][:, None], g.yc[None, :]) if nj > 1 else np.zeros((ni - 1, 1))
         self._xiy_yf = g.xi_y(g.xc[:, None], g.yf[1:-1][None, :]) if nj > 1 else np.zeros((ni, 1))
         self._wing = g.wing
@@ -113,7 +116,7 @@ class TsdFlow:
         k0, zc, i = self.grid.k0, self.grid.zc, self._i_te
         upper = phi[i, :, k0 + 1] - self.w_up[i] * zc[k0 + 1]
         lower = phi[i, :, k0] - self.w_lo[i] * zc[k0]
-        return np.where(self.grid.yc < self.grid.semispan, upper - lower, 0.0)
+        return np.where(self.grid.strips, upper - lower, 0.0)
 
     def _vortex_far_field(self, circulation: float) -> None:
         """Far-field phi_x / phi_z on the outer faces of a 2-D grid from the compressible vortex at x = c/4.
@@ -181,11 +184,12 @@ class TsdFlow:
         p1, p2, p3 = self.levels
         nmax, nrms = kernels.residual(self.phi, p1, p2, p3, tc, self._co, g.xc, g.xf, g.yc, g.yf, g.zc, g.zf,
                                       self._cj, self._cyf, self._xiy_xf, self._xiy_yf, self._wing, self._wake,
-                                      self.w_up, self.w_lo, self.gamma, g.k0, g.lateral_far, self._far_u,
-                                      self._far_w, self.sponge, self._rhs)
+                                      self.w_up, self.w_lo, self.gamma, g.k0, g.lateral_far, g.root_code,
+                                      self._c_root, self._far_u, self._far_w, self.sponge, self._rhs)
         w = self._rhs
         kernels.solve_xi(self.phi, w, tc, self._co, g.xc, g.xf, self._cj, self._xiy_xf, self.sponge)
-        kernels.solve_eta(self.phi, w, tc, self._co, g.xc, g.yc, g.yf, self._cj, self._cyf, g.lateral_far)
+        kernels.solve_eta(self.phi, w, tc, self._co, g.xc, g.yc, g.yf, self._cj, self._cyf, g.lateral_far,
+                          g.root_code, self._c_root)
         kernels.solve_zeta(w, tc, self._co, g.zc, g.zf, self._wing, g.k0)
         self.phi += w
         return float(nmax), float(nrms), float(np.max(np.abs(w)))

@@ -1,9 +1,12 @@
 """Sheared, stretched Cartesian grids for the TSD solver (lengths in units of the root chord c_ref).
 
 The mapping xi = (x - x_le(y)) / c(y), eta = y, zeta = z fits the grid to a trapezoidal planform: the wing is
-0 <= xi <= 1, 0 <= y <= b; beyond the tip x_le and c are frozen at their tip values. Nodes are cell centres:
-the leading and trailing edges, the root (symmetry plane), the tip and the mean plane z = 0 are cell faces,
-so the planform is exactly a union of cells and the slit condition sits on faces (tsd-notes, section 4).
+0 <= xi <= 1, 0 <= y <= b; beyond the tip x_le and c are frozen at their tip values (below the root of a free
+wing at their root values). Nodes are cell centres: the leading and trailing edges, the root, the tip and the
+mean plane z = 0 are cell faces, so the planform is exactly a union of cells and the slit condition sits on faces
+(tsd-notes, section 4). The root face is a symmetry plane (phi mirrored, zero flux), an antisymmetry plane (phi
+mirrored with the opposite sign: phi = 0 on it), or, for a free wing (``root`` "open"), an interior face: the
+grid then continues to y < 0 with a lateral far field of its own.
 """
 
 from __future__ import annotations
@@ -27,9 +30,9 @@ class GridSpec:
     n_downstream: int = 22
     x_upstream: float = 8.0  # local chords ahead of the LE
     x_downstream: float = 10.0  # local chords behind the TE
-    n_span: int = 18  # cells on the semispan, clustered toward the tip
-    n_outboard: int = 10
-    y_outboard: float = 2.5  # far lateral boundary, in semispans
+    n_span: int = 18  # cells on the semispan, clustered toward the tip (a free wing's toward both edges)
+    n_outboard: int = 10  # cells beyond the tip (and, for a free wing, as many below the root)
+    y_outboard: float = 2.5  # far lateral boundary, in semispans from the root (y_outboard - 1 beyond each edge)
     n_z: int = 22  # cells on each side of the mean plane
     dz0: float = 0.02  # first cell height at the mean plane
     z_max: float = 8.0
@@ -62,6 +65,12 @@ class GridSpec:
                         dz0=self.dz0 / factor, z_max=self.z_max)
 
 
+#: the grid's root condition for each wing symmetry (romams_core.wing.SYMMETRIES)
+ROOT_OF_SYMMETRY = {"symmetric": "symmetric", "antisymmetric": "antisymmetric", "none": "open"}
+#: the kernels' code of each root condition
+ROOT_CODES = {"symmetric": 0, "antisymmetric": 1, "open": 2}
+
+
 @dataclass
 class TsdGrid:
     """A sheared TSD grid: faces and centres per direction, metrics, planform and wake masks."""
@@ -74,11 +83,14 @@ class TsdGrid:
     taper: float  # tip chord / root chord
     lateral_far: bool  # False: the outer y face is a symmetry plane too (2-D)
     kinks: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # [K, 3] (y, x_le, chord), c_ref units
+    root: str = "symmetric"  # root face y = 0: "symmetric", "antisymmetric" or "open" (a free wing, y < 0 gridded)
     xc: np.ndarray = field(init=False)
     yc: np.ndarray = field(init=False)
     zc: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
+        if self.root not in ROOT_CODES:
+            raise InputError("root", f"must be one of {tuple(ROOT_CODES)}, got {self.root!r}")
         self.xc = 0.5 * (self.xf[1:] + self.xf[:-1])
         self.yc = 0.5 * (self.yf[1:] + self.yf[:-1])
         self.zc = 0.5 * (self.zf[1:] + self.zf[:-1])
@@ -100,23 +112,33 @@ class TsdGrid:
         return int(np.searchsorted(self.zf, 0.0)) - 1
 
     @property
+    def root_code(self) -> int:
+        """The kernels' code of the root condition (ROOT_CODES)."""
+        return ROOT_CODES[self.root]
+
+    @property
+    def strips(self) -> np.ndarray:
+        """[nj] True for the node columns on the span, 0 < y < semispan."""
+        return (self.yc > 0.0) & (self.yc < self.semispan)
+
+    @property
     def stations(self) -> np.ndarray:
         """[S, 3] planform stations (y, x_le, chord; c_ref units) from root to tip, the kinks between."""
         tip = (self.semispan, self.semispan * self.tan_sweep, self.taper)
         return np.vstack([[0.0, 0.0, 1.0], np.reshape(self.kinks, (-1, 3)), [tip]])
 
     def chord(self, y: np.ndarray) -> np.ndarray:
-        """Local chord (c_ref units) of the mapping at y (frozen beyond the tip)."""
+        """Local chord (c_ref units) of the mapping at y (frozen beyond the tip and below the root)."""
         if len(self.kinks) == 0:
-            eta = np.minimum(np.asarray(y, dtype=float) / self.semispan, 1.0)
+            eta = np.clip(np.asarray(y, dtype=float) / self.semispan, 0.0, 1.0)
             return 1.0 + (self.taper - 1.0) * eta
         st = self.stations
         return np.interp(np.asarray(y, dtype=float), st[:, 0], st[:, 2])
 
     def x_le(self, y: np.ndarray) -> np.ndarray:
-        """Leading-edge x (c_ref units) of the mapping at y (frozen beyond the tip)."""
+        """Leading-edge x (c_ref units) of the mapping at y (frozen beyond the tip and below the root)."""
         if len(self.kinks) == 0:
-            return np.minimum(np.asarray(y, dtype=float), self.semispan) * self.tan_sweep
+            return np.clip(np.asarray(y, dtype=float), 0.0, self.semispan) * self.tan_sweep
         st = self.stations
         return np.interp(np.asarray(y, dtype=float), st[:, 0], st[:, 1])
 
@@ -129,23 +151,25 @@ class TsdGrid:
         return 0.5 * (dxle[left] + dxle[right]), 0.5 * (dc[left] + dc[right])
 
     def xi_y(self, xi: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Metric d(xi)/dy = -(x_le' + xi c') / c at (xi, y); averaged over both sides at the tip and kinks."""
+        """Metric d(xi)/dy = -(x_le' + xi c') / c at (xi, y) (1/c_ref); zero beyond the tip and below the root,
+        averaged over both sides at the tip, the kinks and the root."""
         xi, y = np.broadcast_arrays(np.asarray(xi, float), np.asarray(y, float))
         c = self.chord(y)
         dxle, dc = self._slopes(y)
         inboard = -(dxle + xi * dc) / c
-        val = np.where(y < self.semispan, inboard, 0.0)
-        return np.where(np.isclose(y, self.semispan), 0.5 * inboard, val)
+        val = np.where((y < self.semispan) & (y >= 0.0), inboard, 0.0)
+        edge = np.isclose(y, self.semispan) | np.isclose(y, 0.0, rtol=0.0, atol=1e-12)
+        return np.where(edge, 0.5 * inboard, val)
 
     @property
     def wing(self) -> np.ndarray:
         """[ni, nj] True for nodes on the planform."""
-        return ((self.xc > 0.0) & (self.xc < 1.0))[:, None] & (self.yc < self.semispan)[None, :]
+        return ((self.xc > 0.0) & (self.xc < 1.0))[:, None] & self.strips[None, :]
 
     @property
     def wake(self) -> np.ndarray:
-        """[ni, nj] True for nodes of the wake sheet (behind the trailing edge, inboard of the tip)."""
-        return (self.xc > 1.0)[:, None] & (self.yc < self.semispan)[None, :]
+        """[ni, nj] True for nodes of the wake sheet (behind the trailing edge, on the span)."""
+        return (self.xc > 1.0)[:, None] & self.strips[None, :]
 
     def node_xy(self) -> tuple[np.ndarray, np.ndarray]:
         """Physical x and y (c_ref units) of the (i, j) node columns, each [ni, nj]."""
@@ -192,21 +216,39 @@ def _z_faces(spec: GridSpec) -> np.ndarray:
     return np.concatenate((-half[::-1], half[1:]))
 
 
+def _span_faces(length: float, n: int) -> np.ndarray:
+    """n+1 faces on [0, length] (c_ref units) clustered toward ``length`` (a tip: cells 2.6x finer than at 0)."""
+    s = np.linspace(0.0, 1.0, n + 1)
+    return length * (0.5 * np.sin(0.5 * np.pi * s) + 0.5 * s)
+
+
 def wing_grid(semispan: float, taper: float, tan_sweep: float, spec: GridSpec | None = None,
-              kinks: np.ndarray | None = None) -> TsdGrid:
-    """Sheared grid for a trapezoidal half wing (semispan and chords in root chords) with a root symmetry plane;
-    ``kinks`` [K, 3] (y, x_le, chord in root chords) make it a cranked one."""
+              kinks: np.ndarray | None = None, root: str = "symmetric") -> TsdGrid:
+    """Sheared grid for a trapezoidal half wing (semispan and chords in root chords) whose root face is a
+    symmetry or antisymmetry plane (``root``), or for a free wing (``root`` "open"): then the span's faces are
+    clustered toward both edges (half the cells on each half span, each half like a half wing's) and the
+    outboard faces are mirrored below the root, so the grid is symmetric about mid-span; ``kinks`` [K, 3]
+    (y, x_le, chord in root chords) make it a cranked one."""
     spec = spec or GridSpec()
     if not (math.isfinite(semispan) and semispan > 0):
         raise InputError("planform.semispan", f"must be > 0, got {semispan!r}")
-    s = np.linspace(0.0, 1.0, spec.n_span + 1)
-    wing_y = semispan * (0.5 * np.sin(0.5 * np.pi * s) + 0.5 * s)
+    if root not in ROOT_CODES:
+        raise InputError("root", f"must be one of {tuple(ROOT_CODES)}, got {root!r}")
+    if root == "open":
+        half, n_lo = 0.5 * semispan, spec.n_span // 2
+        upper, lower = half + _span_faces(half, spec.n_span - n_lo), half - _span_faces(half, n_lo)[::-1]
+        wing_y = np.concatenate((lower, upper[1:]))
+        below = geometric_faces(wing_y[1] - wing_y[0], (spec.y_outboard - 1.0) * semispan, spec.n_outboard)
+        inner = np.concatenate((-below[:0:-1], wing_y))  # the root edge is a tip too
+    else:
+        wing_y = inner = _span_faces(semispan, spec.n_span)
     h_tip = wing_y[-1] - wing_y[-2]
     out = geometric_faces(h_tip, (spec.y_outboard - 1.0) * semispan, spec.n_outboard)
-    yf = np.concatenate((wing_y, semispan + out[1:]))
+    yf = np.concatenate((inner, semispan + out[1:]))
     return TsdGrid(xf=_xi_faces(spec), yf=yf, zf=_z_faces(spec), semispan=float(semispan),
                    tan_sweep=float(tan_sweep), taper=float(taper), lateral_far=True,
-                   kinks=np.zeros((0, 3)) if kinks is None else np.reshape(np.asarray(kinks, float), (-1, 3)))
+                   kinks=np.zeros((0, 3)) if kinks is None else np.reshape(np.asarray(kinks, float), (-1, 3)),
+                   root=root)
 
 
 def airfoil_grid(spec: GridSpec | None = None) -> TsdGrid:

@@ -4,8 +4,10 @@ Arrays are phi[i, j, k] (xi, y, z nodes), each node the centre of a finite-volum
 N(phi) = -A c phi_tt - B (phi_xi)_t + D_xi F1 + D_eta F2 + D_zeta F3, the flux differences over its cell faces.
 The outer faces carry the far-field conditions as fluxes (first-order non-reflecting, tsd-notes section 3):
 phi_x = -kappa phi_t upstream and downstream, phi_z = -/+ kappa_z phi_t at the bottom / top, phi_y = -kappa_y phi_t
-at the lateral boundary (3-D); the root face is a symmetry plane (zero flux). With kappa = 0 (steady) they are
-zero-gradient conditions.
+at the lateral boundary (3-D). The root face y = 0 (``root``, the grid's ROOT_CODES) is a symmetry plane (0: phi
+mirrored, zero flux), an antisymmetry plane (1: phi mirrored with the opposite sign, so phi = 0 on it and the
+flux is c phi / y of the first node) or, for a free wing (2), the grid continues to y < 0 and its first y face
+is a lateral far field too, phi_y = +kappa_y phi_t. With kappa = 0 (steady) they are zero-gradient conditions.
 
 The right-hand side of the factored Newton step is s N (s = dt^2 / (A c a0), so that each factor has a unit
 diagonal from the time terms); each factor carries the linearized fluxes of its own direction, boundary faces
@@ -58,15 +60,20 @@ def _upwind_xi(phi: np.ndarray, xc: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(cache=True, nogil=True)
-def _central_eta(phi: np.ndarray, yc: np.ndarray) -> np.ndarray:
-    """d(phi)/dy at the nodes: central inside, mirrored at the root (symmetry), one-sided at the far end."""
+def _central_eta(phi: np.ndarray, yc: np.ndarray, root: int) -> np.ndarray:
+    """d(phi)/dy at the nodes: central inside, one-sided at the far end; at the root mirrored (``root`` 0, the
+    ghost node -yc[0] carries phi), mirrored with the opposite sign (1: -phi) or one-sided (2: a free wing)."""
     ni, nj, nk = phi.shape
     out = np.zeros_like(phi)
     if nj == 1:
         return out
     for j in range(nj):
-        if j == 0:
+        odd = False
+        if j == 0 and root == 2:
+            ylo, jlo = yc[0], 0
+        elif j == 0:
             ylo, jlo = -yc[0], 0
+            odd = root == 1
         else:
             ylo, jlo = yc[j - 1], j - 1
         jhi = min(j + 1, nj - 1)
@@ -77,15 +84,20 @@ def _central_eta(phi: np.ndarray, yc: np.ndarray) -> np.ndarray:
         inv = 1.0 / (yhi - ylo)
         for i in range(ni):
             for k in range(nk):
-                out[i, j, k] = (phi[i, jhi, k] - phi[i, jlo, k]) * inv
+                if odd:
+                    out[i, j, k] = (phi[i, jhi, k] + phi[i, jlo, k]) * inv
+                else:
+                    out[i, j, k] = (phi[i, jhi, k] - phi[i, jlo, k]) * inv
     return out
 
 
 @nb.njit(cache=True, nogil=True)
 def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, xiy_yf,
-             wing, wake, wup, wlo, gam, k0, lateral_far, far_u, far_w, sponge, rhs):  # pragma: no cover - compiled
+             wing, wake, wup, wlo, gam, k0, lateral_far, root, c_root, far_u, far_w, sponge,
+             rhs):  # pragma: no cover - compiled
     """Fill ``rhs`` (the factored-step right-hand side s N) and return (max |N|, rms N) over all nodes.
 
+    ``root``: the root face's condition (module docstring); ``c_root``: the chord there (c_ref units).
     ``far_u`` [2, nj, nk] and ``far_w`` [2, ni, nj]: prescribed far-field phi_x on the upstream/downstream faces
     and phi_z on the bottom/top faces, added to the non-reflecting conditions (a 2-D vortex far field; zero in 3-D).
     ``sponge`` [ni, nj, nk]: damping rate sigma (1/t*) of the absorbing layer, N -= A c sigma phi_t (zero inside).
@@ -97,7 +109,7 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
     gus = _g(us, E, F)
     three_d = nj > 1
     px = _central_xi(phi, xc)
-    pe = _central_eta(phi, yc)
+    pe = _central_eta(phi, yc, root)
     ux = _upwind_xi(phi, xc)
     ux1 = _upwind_xi(p1, xc)
     ux2 = _upwind_xi(p2, xc)
@@ -135,7 +147,7 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
                 dxi = (gp[i + 1] - gp[i] + gm[i] - gmm + xx[i + 1] - xx[i]) / (xf[i + 1] - xf[i])
                 pt = (b0 * phi[i, j, k] + b1 * p1[i, j, k] + b2 * p2[i, j, k]) / dt
                 rhs[i, j, k] = -A * c * (ptt + sponge[i, j, k] * pt) - B * pxt + dxi
-        # spanwise fluxes (3-D): root face symmetric, outer face from the lateral far-field condition
+        # spanwise fluxes (3-D): root face by ``root``, outer face from the lateral far-field condition
         if three_d:
             for i in range(ni):
                 for k in range(nk):
@@ -155,6 +167,11 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
                         pxi = 0.5 * (px[i, j - 1, k] + px[i, j, k])
                         py = (phi[i, j, k] - phi[i, j - 1, k]) / dy + xiy_yf[i, j - 1] * pxi
                         fl = cyf[j - 1] * (py + H * (pxi / cyf[j - 1]) * py)
+                    elif root == 1:  # ghost -phi at -yc[0]: phi = 0 and phi_xi = 0 on the plane (u = 0 there)
+                        fl = c_root * (phi[i, 0, k] + phi[i, 0, k]) / (yc[0] + yc[0])
+                    elif root == 2:  # free wing: lateral far field below the root, phi_y = +kappa_y phi_t
+                        pt = (b0 * phi[i, j, k] + b1 * p1[i, j, k] + b2 * p2[i, j, k]) / dt
+                        fl = c * ky * pt
                     rhs[i, j, k] += (fr - fl) / dyj
         # normal fluxes (face f below node f), the slit condition on the planform and the jump in the wake
         for i in range(ni):
@@ -258,8 +275,8 @@ def solve_xi(phi, w, tc, co, xc, xf, cj, xiy_xf, sponge):  # pragma: no cover - 
 
 
 @nb.njit(cache=True, nogil=True)
-def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no cover - compiled
-    """Apply the spanwise factor's inverse to w in place (root symmetry face, lateral far-field face)."""
+def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far, root, c_root):  # pragma: no cover - compiled
+    """Apply the spanwise factor's inverse to w in place (root face by ``root``, lateral far-field faces)."""
     ni, nj, nk = phi.shape
     if nj == 1:
         return
@@ -291,6 +308,10 @@ def solve_eta(phi, w, tc, co, xc, yc, yf, cj, cyf, lateral_far):  # pragma: no c
                 lb[f + 1] -= q
             if lateral_far:
                 ld[nj - 1] += dt * dt / (A * a0) * ky * b0 / dt / (yf[nj] - yf[nj - 1])
+            if root == 1:  # antisymmetry plane: the flux c_root (phi0 - (-phi0)) / (2 yc0), u = 0 on the plane
+                ld[0] += dt * dt / (A * cj[0] * a0) * 2.0 * c_root / (yc[0] + yc[0]) / (yf[1] - yf[0])
+            elif root == 2:  # free wing: the lateral far field below the root
+                ld[0] += dt * dt / (A * a0) * ky * b0 / dt / (yf[1] - yf[0])
             for j in range(nj):
                 r[j] = w[i, j, k]
             la[:] = 0.0

@@ -29,10 +29,11 @@ from romams_core.aero.protocol import (
     check_mach,
     check_shapes,
     check_signals,
+    image_sign,
 )
 from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS, tsd_coefficients
 from romams_core.aero.tsd.flow import SteadyResult, TsdFlow
-from romams_core.aero.tsd.grid import GridSpec, TsdGrid, wing_grid
+from romams_core.aero.tsd.grid import ROOT_OF_SYMMETRY, GridSpec, TsdGrid, wing_grid
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
 
@@ -115,6 +116,14 @@ def substep_inputs(signals: np.ndarray, n_int: int, dt_star: float) -> tuple[np.
     return np.einsum("qs,qtm->tsm", w, nodes), np.einsum("qs,qtm->tsm", dw, nodes)
 
 
+#: How each root symmetry is modelled (the solver's description).
+_ROOT_WORDS = {
+    "symmetric": "(symmetry plane: zero flux, the symmetric half wing)",
+    "antisymmetric": "(antisymmetry plane: phi = 0 on it, the mirror image's potential of the opposite sign)",
+    "none": "(a free wing: the grid continues below the root to a lateral far field)",
+}
+
+
 @dataclass
 class MeanFlow:
     """Steady mean flow of one training run: surface Cp on the planform nodes and the convergence history."""
@@ -145,7 +154,9 @@ class TsdSolver:
     time step (t*), the signals' step is subdivided to meet it; ``n_sub``: Newton sub-iterations per step (None:
     ``sub_iterations(mach)``; the lagged cross-derivative and wake terms need them for stability, and a second
     changed the linear GAF by < 0.1 %). The kernels are serial: numba's parallel loops ran 12x slower with the
-    cores oversubscribed and abort in forked training processes.
+    cores oversubscribed and abort in forked training processes. ``symmetry``: the root's, as the DLM's
+    (symmetric: the root face is a symmetry plane; antisymmetric: an antisymmetry plane, phi = 0 on it; none: a
+    free wing, the grid continues below the root to a lateral far field of its own).
     """
 
     thickness_form: str | None = None
@@ -159,6 +170,7 @@ class TsdSolver:
     steady_tol: float = 2e-4
     name: str = "tsd"
     record_threads: int | None = None
+    symmetry: str = "symmetric"  # of the root plane: symmetric, antisymmetric or none (a free wing)
     last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -168,6 +180,7 @@ class TsdSolver:
             raise InputError("coefficients", f"must be one of {COEFFICIENT_SETS}, got {self.coefficients!r}")
         if not (math.isfinite(self.dt) and 0.0 < self.dt <= 0.2):
             raise InputError("dt", f"must be in (0, 0.2] (t* units), got {self.dt!r}")
+        image_sign(self.symmetry)  # InputError naming symmetry
 
     def info(self, mach: float) -> SolverInfo:
         """Describe the solver and its caveats at ``mach``."""
@@ -177,15 +190,15 @@ class TsdSolver:
         return SolverInfo(name="tsd", description=(
             "unsteady nonlinear transonic small-disturbance potential (CAP-TSD family: approximate factorization, "
             f"Engquist-Osher differencing, thin-wing boundary conditions; coefficients '{self.coefficients}', "
-            "isentropic and inviscid)"), warnings=warnings)
+            f"isentropic and inviscid), root {self.symmetry} {_ROOT_WORDS[self.symmetry]}"), warnings=warnings)
 
     # ----- set-up -----------------------------------------------------------------------------------------------
     def build_grid(self, mesh: StandardMesh) -> TsdGrid:
-        """Sheared grid of the mesh's planform (root chord units)."""
+        """Sheared grid of the mesh's planform (root chord units) with the root condition of ``symmetry``."""
         pf = mesh.planform
         kinks = np.reshape(np.asarray(pf.kinks, dtype=float), (-1, 3)) / pf.c_ref
         return wing_grid(pf.semispan / pf.c_ref, pf.tip_chord / pf.root_chord, math.tan(pf.sweep_le), self.grid,
-                         kinks)
+                         kinks, root=ROOT_OF_SYMMETRY[self.symmetry])
 
     def _thickness_slope(self, grid: TsdGrid) -> np.ndarray:
         """[ni] half-thickness slope d(tau)/dx on the wing nodes (cell averages; zero off the chord)."""
@@ -234,8 +247,7 @@ class TsdSolver:
         on AGARD 445.6 (smallest 0.012) 0.02 is stable.
         """
         i_te = int(np.flatnonzero(grid.xc < 1.0)[-1])
-        strips = grid.yc < grid.semispan
-        te = (grid.xf[i_te + 1] - grid.xf[i_te]) * grid.chord(grid.yc[strips]).min()
+        te = (grid.xf[i_te + 1] - grid.xf[i_te]) * grid.chord(grid.yc[grid.strips]).min()
         return float(min(self.dt, TE_CELLS_PER_STEP * te))
 
     def n_sub_at(self, mach: float) -> int:
@@ -264,7 +276,7 @@ class TsdSolver:
             raise RuntimeError(f"TSD steady solution diverged at M = {mach} (reduce dt or refine the grid)")
         up, lo = flow.surface_cp()
         iw = np.flatnonzero((grid.xc > 0) & (grid.xc < 1))
-        jw = np.flatnonzero(grid.yc < grid.semispan)
+        jw = np.flatnonzero(grid.strips)  # the wing's stations (not a free wing's columns below the root)
         self.last_mean_flow = MeanFlow(mach=mach, x_over_c=grid.xc[iw], eta=grid.yc[jw] / grid.semispan,
                                        cp_upper=up[np.ix_(iw, jw)], cp_lower=lo[np.ix_(iw, jw)],
                                        cp_star=flow.coef.cp_star, steady=result, dt=dt)
