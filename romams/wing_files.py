@@ -69,8 +69,8 @@ def wing_schema() -> dict[str, Any]:
     props = schema.get("properties", {})
     if "symmetry" in props:
         props["symmetry"]["enum"] = ["symmetric", "antisymmetric", "none"]
-        props["symmetry"]["description"] = ("symmetry about the root plane: the DLM and the UVLM model all three; "
-                                            "the TSD solves the symmetric half wing only")
+        props["symmetry"]["description"] = ("symmetry about the root plane: the DLM, the UVLM and the TSD "
+                                            "model all three")
     kinks = defs.get("Planform", {}).get("properties", {}).get("kinks")
     if kinks is not None:
         kinks["description"] = ("a cranked planform's interior span stations [y, leading-edge x, chord] (m), y "

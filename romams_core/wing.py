@@ -26,7 +26,7 @@ from romams_core.validation import check_int, check_number
 
 THICKNESS_FORMS = ("constant", "naca4", "naca65a004")
 #: aerodynamic symmetry about the root (x-z) plane: a half wing mirrored symmetrically, antisymmetrically, or
-#: a free wing (no mirror); the DLM and the UVLM model all three, the TSD the symmetric case only
+#: a free wing (no mirror); the DLM, the UVLM and the TSD model all three
 SYMMETRIES = ("symmetric", "antisymmetric", "none")
 BEAM_PLACEMENTS = ("mid-plane", "eccentric")
 

@@ -112,7 +112,7 @@ def _ramp_hold(n: int = 200) -> np.ndarray:
 
 @pytest.mark.parametrize("symmetry", ["antisymmetric", "none"])
 def test_steady_limit_matches_the_doublet_lattice(symmetry):
-    """A flat swept tapered wing (AR 3.75 full span, taper 0.6, 20 deg) at M 0.5, pitch about the root quarter
+    """A flat swept tapered wing (semispan 1.5 root chords, taper 0.6, 20 deg) at M 0.5, pitch about the root quarter
     chord and a pitch growing linearly to the tip (0.01 rad), each ramped slowly to a hold of 18 t* (n_span 12):
     the 2 x 2 steady GAC equal the DLM's (``DlmSolver(symmetry=...)``, an independent discretization) within 5 %
     entry by entry. Measured: antisymmetric within 0.51 % (pitch-pitch -5.064e-5 against -5.090e-5 m^3), none

@@ -151,8 +151,8 @@ WING_BODY = {"requestBody": {"required": True, "content": {
             "name": {"type": "string", "minLength": 1, "maxLength": WING_NAME_MAX},
             "units": {"type": "string", "enum": ["si", "mm-t-s", "in-lbf-s", "ft-lbf-s"]},
             "symmetry": {"type": "string", "enum": ["symmetric", "antisymmetric", "none"],
-                         "description": "override the deck's AERO/AEROS symmetry (the dlm and the uvlm model all "
-                                        "three, the tsd the symmetric case)"},
+                         "description": "override the deck's AERO/AEROS symmetry (the dlm, the uvlm and the tsd "
+                                        "model all three)"},
             "n_chord": {"type": "integer", "minimum": 1, "maximum": 200},
             "n_span": {"type": "integer", "minimum": 1, "maximum": 200}}}}}}}
 

@@ -27,8 +27,8 @@ def import_command(
     name: str | None = typer.Option(None, "--name", help="wing name (default: the file's stem)"),
     units: str = typer.Option("si", "--units", help="the deck's units: si, mm-t-s, in-lbf-s, ft-lbf-s"),
     symmetry: str | None = typer.Option(None, "--symmetry", help="override the AERO/AEROS symmetry: "
-                                         "symmetric, antisymmetric or none (a free wing; the dlm and the uvlm "
-                                         "model all three, the tsd the symmetric case)"),
+                                         "symmetric, antisymmetric or none (a free wing; the dlm, the uvlm "
+                                         "and the tsd model all three)"),
     n_chord: int | None = typer.Option(None, "--n-chord", min=1, max=200, help="standard-mesh chordwise panels "
                                                                                "(default: the deck's boxes)"),
     n_span: int | None = typer.Option(None, "--n-span", min=1, max=200, help="standard-mesh spanwise panels"),
