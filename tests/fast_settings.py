@@ -7,3 +7,18 @@ DLM_FAST = {"lattice_refine": 1}
 #: the smallest useful RFA ROM on the default lattice: four reduced frequencies, one lag (a smoke ROM for plumbing;
 #: test_faults.py needs its training to run for a few seconds)
 RFA_FAST = {"k_values": [0.0, 0.1, 0.3, 0.6], "n_lags": 1}
+
+
+def baseline_dlm_rom(mach: float):
+    """(wing, mesh, modal, rom): the cropped delta's baseline 4 modes and their DLM RFA ROM at ``mach`` on one box
+    per panel (the reference of the GAF-table import tests)."""
+    from romams_core.aero.dlm import DlmSolver
+    from romams_core.mesh import standard_mesh
+    from romams_core.structure.modal import modal_analysis
+    from romams_core.training_rfa import train_rfa_rom
+    from romams_core.wing import template
+
+    wing = template("cropped-delta")
+    mesh = standard_mesh(wing.planform)
+    modal = modal_analysis(wing, None, 4, mesh)
+    return wing, mesh, modal, train_rfa_rom(mesh, modal.shapes, mach, DlmSolver(refine=1))

@@ -3,15 +3,12 @@ RFA ROM and flutter point; malformed tables are refused naming the field."""
 
 import numpy as np
 import pytest
+from fast_settings import baseline_dlm_rom
 
-from romams_core.aero.dlm import DlmSolver
 from romams_core.errors import InputError
 from romams_core.flutter import flutter_analysis
 from romams_core.gaf_table import GafTable, TableSolver, check_table, gaf_npz, read_gaf_csv, read_gaf_npz
-from romams_core.mesh import standard_mesh
-from romams_core.structure.modal import modal_analysis
 from romams_core.training_rfa import DEFAULT_K_VALUES, train_rfa_rom
-from romams_core.wing import template
 
 MACH = 0.87
 
@@ -19,10 +16,7 @@ MACH = 0.87
 @pytest.fixture(scope="module")
 def dlm():
     """Cropped delta, baseline 4 modes, the DLM ROM (one box per panel) and its table."""
-    wing = template("cropped-delta")
-    mesh = standard_mesh(wing.planform)
-    modal = modal_analysis(wing, None, 4, mesh)
-    rom = train_rfa_rom(mesh, modal.shapes, MACH, DlmSolver(refine=1))
+    wing, mesh, modal, rom = baseline_dlm_rom(MACH)
     return wing, mesh, modal, rom, GafTable(MACH, rom.k_values, rom.gaf)
 
 

@@ -10,16 +10,13 @@ import tempfile
 
 import numpy as np
 import pytest
+from fast_settings import baseline_dlm_rom
 
-from romams_core.aero.dlm import DlmSolver
 from romams_core.errors import InputError
 from romams_core.flutter import flutter_analysis
 from romams_core.gaf_table import GafTable, TableSolver
-from romams_core.mesh import standard_mesh
 from romams_core.nastran.qhh import QhhLayout, is_op4, is_punch, read_qhh_op4, read_qhh_punch
-from romams_core.structure.modal import modal_analysis
 from romams_core.training_rfa import train_rfa_rom
-from romams_core.wing import template
 
 MACH = 0.87
 
@@ -27,10 +24,7 @@ MACH = 0.87
 @pytest.fixture(scope="module")
 def dlm():
     """Cropped delta, baseline 4 modes, the DLM ROM (one box per panel), its table and flutter point."""
-    wing = template("cropped-delta")
-    mesh = standard_mesh(wing.planform)
-    modal = modal_analysis(wing, None, 4, mesh)
-    rom = train_rfa_rom(mesh, modal.shapes, MACH, DlmSolver(refine=1))
+    wing, mesh, modal, rom = baseline_dlm_rom(MACH)
     ref = flutter_analysis(modal.omega, rom.ss, rom.c_ref, MACH, zeta=wing.modal_damping)
     assert ref.flutter_found
     return wing, mesh, modal, GafTable(MACH, rom.k_values, rom.gaf), ref
