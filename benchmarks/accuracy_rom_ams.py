@@ -55,6 +55,12 @@ def _fom_one(args: tuple[Any, np.ndarray, np.ndarray, float, float, str, str]) -
             "mode": res.flutter_mode, "q": res.q_flutter_pa, "seconds": time.perf_counter() - t0}
 
 
+def _worst_nrmse(rom: Any) -> float | None:
+    """Largest validation NRMSE of a time-domain (ARX) ROM; None for an RFA ROM (it has a fit error instead)."""
+    v = getattr(rom, "validation_nrmse", None)
+    return None if v is None or np.size(v) == 0 else float(np.max(v))
+
+
 def pct_error(a: float | None, ref: float | None) -> float | None:
     """100 (a / ref - 1), or None when either is missing."""
     return None if a is None or ref is None else 100.0 * (a / ref - 1.0)
@@ -96,6 +102,7 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
                 "omega_ams": ams.omega_flutter_rad_s, "omega_pms": pms.omega_flutter_rad_s,
                 "mode_ams": ams.flutter_mode, "mode_pms": pms.flutter_mode,
                 "found_ams": ams.flutter_found, "found_pms": pms.flutter_found,
+                "nrmse_ams": _worst_nrmse(roms[mach]), "nrmse_pms": _worst_nrmse(rom),
                 "v_error_pct": pct_error(_eas(ams.q_flutter_pa), _eas(pms.q_flutter_pa)) if both else None,
                 "omega_error_pct": 100.0 * (ams.omega_flutter_rad_s / pms.omega_flutter_rad_s - 1.0) if both else None,
             })
