@@ -18,7 +18,7 @@ from __future__ import annotations
 import csv
 import io
 import zipfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -168,4 +168,4 @@ def on_mass_normalized_modes(table: GafTable, generalized_masses: Any) -> GafTab
     if m.shape != (table.n_shapes,) or not np.all(np.isfinite(m)) or np.any(m <= 0):
         raise InputError("generalized_masses", f"expected {table.n_shapes} finite masses > 0, got {m.tolist()[:6]}")
     s = 1.0 / np.sqrt(m)
-    return GafTable(mach=table.mach, k_values=table.k_values, gaf=table.gaf * s[None, :, None] * s[None, None, :])
+    return replace(table, gaf=table.gaf * s[None, :, None] * s[None, None, :])

@@ -227,7 +227,7 @@ def build_uvlm(
 
     ``wake_chords``: wake length in root chords (rows of length dt_star * c_ref). ``symmetry``: the root's
     (symmetric, antisymmetric, or none: a free wing), the sign of the mirror-image rings and wake
-    (``romams_core.wing.image_sign``). Prandtl-Glauert/Goethert stretch of x by 1/beta; unreliable toward
+    (``romams_core.aero.protocol.image_sign``). Prandtl-Glauert/Goethert stretch of x by 1/beta; unreliable toward
     M = 1 (see module docstring).
     """
     mach = check_mach(mach)

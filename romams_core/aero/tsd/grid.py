@@ -232,9 +232,7 @@ def wing_grid(semispan: float, taper: float, tan_sweep: float, spec: GridSpec | 
     spec = spec or GridSpec()
     if not (math.isfinite(semispan) and semispan > 0):
         raise InputError("planform.semispan", f"must be > 0, got {semispan!r}")
-    if root not in ROOT_CODES:
-        raise InputError("root", f"must be one of {tuple(ROOT_CODES)}, got {root!r}")
-    if root == "open":
+    if root == "open":  # (an unknown root is refused by TsdGrid)
         half, n_lo = 0.5 * semispan, spec.n_span // 2
         upper, lower = half + _span_faces(half, spec.n_span - n_lo), half - _span_faces(half, n_lo)[::-1]
         wing_y = np.concatenate((lower, upper[1:]))
