@@ -202,17 +202,19 @@ class RomamsClient:
         """Bases of a wing, newest first."""
         return self._json("GET", f"/wings/{self._ref(wing)}/bases")
 
-    def start_training(self, wing: WingRef, machs: float | Sequence[float], solver: str = "dlm", na: int = 8,
-                       nb: int = 8, basis_id: int | None = None,
+    def start_training(self, wing: WingRef, machs: float | Sequence[float], solver: str = "dlm", na: int | None = None,
+                       nb: int | None = None, basis_id: int | None = None,
                        options: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
         """Start ROM training at one or several Mach numbers (one job each).
 
-        ``solver``: "dlm" (doublet lattice, rational-function ROM; the default) or "uvlm" (ARX ROM, whose
-        orders ``na``/``nb`` apply). Returns one item per Mach: ``{"mach", "job_id", "rom_id", "existing"}``
+        ``solver``: "dlm" (doublet lattice, rational-function ROM; the default), "uvlm" or "tsd" (ARX ROMs, whose
+        orders ``na``/``nb`` apply; None: the server's default for the solver, 8 for uvlm and 12 for tsd).
+        Returns one item per Mach: ``{"mach", "job_id", "rom_id", "existing"}``
         (an already trained model or running job is returned instead of a new one).
         """
         single = np.ndim(machs) == 0
-        body: dict[str, Any] = {"solver": solver, "na": int(na), "nb": int(nb)}
+        body: dict[str, Any] = {"solver": solver}
+        body.update({k: int(v) for k, v in (("na", na), ("nb", nb)) if v is not None})
         if single:
             body["mach"] = float(machs)  # type: ignore[arg-type]
         else:

@@ -166,7 +166,7 @@ def demo_command(
         machs = [0.87]
     else:
         quick_opts = DLM_QUICK_OPTIONS if quick and solver == "dlm" else None
-        ident = rom_identity(solver, 8, 8, quick_opts, wing=template("cropped-delta"))
+        ident = rom_identity(solver, options=quick_opts, wing=template("cropped-delta"))
     timings: dict[str, Any] = {}
     store = open_store()
 

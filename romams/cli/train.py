@@ -37,8 +37,10 @@ def train_command(
     solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver: dlm (doublet lattice, "
                                "rational-function ROM), uvlm (time domain, ARX ROM) or tsd (transonic small "
                                "disturbance, minutes per Mach)"),
-    na: int = typer.Option(8, "--na", min=0, max=64, help="ARX output delay order (time-domain solvers)"),
-    nb: int = typer.Option(8, "--nb", min=1, max=64, help="ARX input delay order (time-domain solvers)"),
+    na: int | None = typer.Option(None, "--na", min=0, max=64, help="ARX output delay order (time-domain solvers; "
+                                  "default 12 for tsd, 8 for uvlm)"),
+    nb: int | None = typer.Option(None, "--nb", min=1, max=64, help="ARX input delay order (time-domain solvers; "
+                                  "default as --na)"),
     reduce: str | None = typer.Option(None, "--reduce", help="balanced reduction of the ROM: 'auto' or a state "
                                       "count (ARX: truncation; dlm: singular perturbation of the RFA)"),
     n_steps: int | None = typer.Option(None, "--n-steps", min=16, help="ARX: signal length (steps)"),
@@ -192,12 +194,13 @@ def train_command(
                f"trained in {sig(rom.train_seconds)} s (wall)")
 
 
-def _export_package(wing: Any, basis_id: int, basis: Any, mach: float, na: int, nb: int, n_steps: int | None,
-                    seed: int, path: Path) -> None:
+def _export_package(wing: Any, basis_id: int, basis: Any, mach: float, na: int | None, nb: int | None,
+                    n_steps: int | None, seed: int, path: Path) -> None:
     """Write the external-CFD training package (``romams.services.external_cfd``) and say what it holds."""
     from romams.services.external_cfd import export_package
 
-    opts: dict[str, Any] = {"na": na, "nb": nb, "seed": seed, **({} if n_steps is None else {"n_steps": n_steps})}
+    given = {"na": na, "nb": nb, "n_steps": n_steps}  # None: the package's defaults
+    opts: dict[str, Any] = {"seed": seed, **{k: v for k, v in given.items() if v is not None}}
     try:
         data, settings = export_package(wing, basis_id, basis, mach, opts)
     except ServiceError as exc:

@@ -82,15 +82,35 @@ def section_options(wing: Any) -> dict[str, Any]:
     return {"thickness_form": str(form), "thickness_to_chord": float(s.thickness_to_chord)}
 
 
-def rom_identity(solver: str = DEFAULT_SOLVER, na: int = 8, nb: int = 8,
+#: ARX orders (na, nb) of a UVLM ROM when a request names none
+UVLM_ORDERS = (8, 8)
+
+
+def default_orders(solver: str) -> tuple[int, int]:
+    """ARX orders (na, nb) of ``solver`` when a request names none: the TSD's (12/12, ``TSD_ORDERS``), 8/8 for the
+    UVLM, 0/0 for a frequency-domain or imported model."""
+    if is_frequency_solver(solver) or is_external(solver):
+        return 0, 0
+    if solver == "tsd":
+        from romams_core.training_tsd import TSD_ORDERS
+
+        return TSD_ORDERS
+    return UVLM_ORDERS
+
+
+def rom_identity(solver: str = DEFAULT_SOLVER, na: int | None = None, nb: int | None = None,
                  options: Mapping[str, Any] | None = None, wing: Any = None) -> dict:
     """Identity of a trained ROM besides (wing, basis, Mach): the same dict the HTTP API stores.
+
+    ``na``/``nb`` None: the solver's default orders (``default_orders``).
 
     For the TSD the wing's section (thickness form and t/c, ``section_options``) is part of the identity unless
     the options name it; for every built-in solver (each models all three root conditions) a root symmetry other
     than symmetric (antisymmetric, or none: a free wing) is (a symmetric wing's identity names none, as before)."""
     if is_frequency_solver(solver) or is_external(solver):
         na = nb = 0  # an imported model is one per (wing, basis, Mach, label): importing again replaces it
+    na = default_orders(solver)[0] if na is None else na
+    nb = default_orders(solver)[1] if nb is None else nb
     opts = {} if is_external(solver) else dict(options or {})
     if solver == "tsd" and wing is not None:
         opts = {**section_options(wing), **opts}

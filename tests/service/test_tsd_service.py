@@ -7,10 +7,11 @@ import pytest
 from fastapi.testclient import TestClient
 
 from api.app import create_app
-from romams.services.training import allowed_options, rom_identity, section_options
+from api.schemas import RomRequest
+from romams.services.training import allowed_options, default_orders, rom_identity, section_options
 from romams.settings import Settings
 from romams_core.mesh import standard_mesh
-from romams_core.training_tsd import train_tsd_rom
+from romams_core.training_tsd import TSD_ORDERS, train_tsd_rom, tsd_n_steps
 from romams_core.wing import template
 
 
@@ -25,6 +26,19 @@ def test_identity_carries_the_wing_section():
         == 0.03
     assert rom_identity("dlm", wing=agard)["options"] == {}
     assert {"grid_scale", "thickness_form", "linearity_check", "tsd_dt"} <= allowed_options("tsd")
+
+
+def test_default_arx_orders_are_the_solvers():
+    # 12/12 for the TSD (docs/transonic.md 7.2: 8/8 under-identified an 8-shape basis), 8/8 for the UVLM
+    assert TSD_ORDERS == (12, 12) == default_orders("tsd") and default_orders("uvlm") == (8, 8)
+    assert default_orders("dlm") == (0, 0) == default_orders("external:nastran")
+    body = RomRequest(mach=0.87, solver="tsd")  # a request without orders gets the solver's
+    ident = rom_identity(body.solver, body.na, body.nb)
+    assert (ident["na"], ident["nb"]) == (12, 12) and rom_identity("uvlm")["na"] == 8
+    assert rom_identity("tsd", 6, None)["na"] == 6 and rom_identity("tsd", 6, None)["nb"] == 12
+    assert rom_identity("dlm", 12, 12)["na"] == 0
+    # the record grows with the orders: 16 samples per ARX parameter per output, 8 shapes
+    assert tsd_n_steps(8, 12, 12, 0.1) == 3072 and tsd_n_steps(8, 8, 8, 0.1) == 2048
 
 
 @pytest.fixture(scope="module")
