@@ -256,7 +256,7 @@ def with_symmetry(solver: UnsteadySolver, symmetry: str | None) -> UnsteadySolve
     image_sign(symmetry)  # InputError naming symmetry for an unknown one
     if not (dataclasses.is_dataclass(solver) and hasattr(solver, "symmetry")):
         raise InputError("symmetry", f"solver {getattr(solver, 'name', type(solver).__name__)!r} has no setting "
-                                     "'symmetry' (it solves the symmetric half wing)")
+                                     "'symmetry'; pass a solver built for the root condition instead")
     return dataclasses.replace(solver, symmetry=symmetry)
 
 

@@ -30,6 +30,7 @@ from typing import Any, TypeVar
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from .assignment import assign_step
 from .eigen import EigData, EigRequest
 from .model import Model
 from .newton import Request
@@ -48,6 +49,7 @@ MAX_REFINE_POINTS = 400  # refinement budget (eigen-solved points) of one search
 G_UNSTABLE = 1e-9  # g above which a branch counts as unstable
 HUMP_FLOOR = 1e-6  # a damping hump is resolved when its estimate (+ uncertainty) reaches above this g
 HUMP_ERR = 0.5  # uncertainty of the parabola estimate of g, relative to the linear extrapolation error
+_NO_CONTENT = np.zeros(0)
 
 T = TypeVar("T")
 Solve = Generator[Request, Any, T]  # a computation that yields eigen requests and returns a T (batch.py)
@@ -105,6 +107,34 @@ def _tie_gap(cost: np.ndarray, chosen: list[float], prev: Branches, omega: np.nd
 
 def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tuple[Branches, StepCheck]:
     """One tracking step: Hungarian assignment of the candidates of one sweep point ``e`` to the branches.
+
+    Cost: (1 - MAC of the normalized structural vectors) + weight x eigenvalue distance relative to
+    max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a finite scale) + W_CONTENT x (0.5 - structural
+    content)+ of the candidate (content counted 0 beyond VEER_DIST, and the term left out near s = 0) +
+    LAG_PENALTY for a lag-root candidate (``eigen.lag_mask``). ZOH eigenvalues are unwrapped by the alias period.
+    Computed by the compiled kernel ``assignment.assign_step``; ``assign_numpy`` is the same step in numpy and
+    scipy (its reference in the tests).
+    """
+    assert e.xs is not None
+    lam_c, a_c, period = e.lam[0], e.xs[0], float(e.period[0])
+    k = prev.lam.size
+    if lam_c.size < k:
+        return assign_numpy(prev, e, weight, omega)
+    lag_c = np.zeros(lam_c.size, bool) if e.lag is None else e.lag[0]
+    content = _NO_CONTENT if e.content is None else e.content[0]
+    cols, new_lam, mac_min, jump, gap, lag = assign_step(
+        prev.lam, prev.vec, lam_c, a_c, period, omega, float(weight), lag_c, content, e.content is not None,
+        np.array([LAG_PENALTY, W_CONTENT, VEER_DIST, CONTENT_AWAY]))  # read at each call (tests vary them)
+    if cols[0] < 0:  # no finite assignment (cannot happen with the finite costs): the reference path decides
+        return assign_numpy(prev, e, weight, omega)
+    check = StepCheck(float(mac_min), float(jump), float(gap), bool(lag))
+    new_content = None if e.content is None else e.content[0][cols]
+    return Branches(new_lam, a_c[:, cols], prev.lag or bool(lag), new_content), check
+
+
+def assign_numpy(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tuple[Branches, StepCheck]:
+    """``assign`` in numpy and scipy (Hungarian assignment by ``linear_sum_assignment``): the reference of the
+    compiled kernel.
 
     Cost: (1 - MAC of the normalized structural vectors) + weight x eigenvalue distance relative to
     max(|s_prev|, omega_j) (a branch heading for s = 0 keeps a finite scale) + W_CONTENT x (0.5 - structural

@@ -35,11 +35,12 @@ def service_env(data_dir: Path, **settings: object) -> dict[str, str]:
 class WorkerProcess:
     """A real ``celery worker`` subprocess of the service (prefork pool)."""
 
-    def __init__(self, env: dict[str, str], log: Path, concurrency: int = 2) -> None:
+    def __init__(self, env: dict[str, str], log: Path, concurrency: int = 2,
+                 queues: str = "training,evaluation") -> None:
         self.log_path = log
         self._log = open(log, "ab")  # noqa: SIM115 - closed in stop()
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "celery", "-A", "worker.celery_app", "worker", "-Q", "training,evaluation",
+            [sys.executable, "-m", "celery", "-A", "worker.celery_app", "worker", "-Q", queues,
              "--concurrency", str(concurrency), "--loglevel", "info", "--without-gossip", "--without-mingle",
              "--hostname", f"test-{uuid.uuid4().hex[:6]}@%h"],
             cwd=ROOT, env=env, stdout=self._log, stderr=subprocess.STDOUT, start_new_session=True)

@@ -76,9 +76,10 @@ def seed_basis(store: Store, wing_id: int) -> int:
 
 
 @contextlib.contextmanager
-def open_deployment(tmp_path: Path, postgres: PostgresServer, **overrides: object) -> Iterator[Deployment]:
-    """Own Redis, a fresh database on ``postgres``, one worker process (``worker_concurrency``, default 1), the API
-    in process; settings FAST, updated by ``overrides`` (also used by benchmarks.reliability)."""
+def open_deployment(tmp_path: Path, postgres: PostgresServer, queues: str = "training,evaluation",
+                    **overrides: object) -> Iterator[Deployment]:
+    """Own Redis, a fresh database on ``postgres``, one worker process (``worker_concurrency``, default 1) on
+    ``queues``, the API in process; settings FAST, updated by ``overrides`` (also used by benchmarks.reliability)."""
     from romams.persistence import dispose_engines, open_store
 
     redis = RedisServer(tmp_path).start()
@@ -86,7 +87,7 @@ def open_deployment(tmp_path: Path, postgres: PostgresServer, **overrides: objec
     settings = Settings(data_dir=tmp_path / "data", **values)
     store = open_store(settings, migrate=True)
     worker = WorkerProcess(service_env(tmp_path / "data", **values), tmp_path / "worker.log",
-                           concurrency=int(values.get("worker_concurrency", 1)))
+                           concurrency=int(values.get("worker_concurrency", 1)), queues=queues)
     try:
         with TestClient(create_app(settings)) as client:
             wid = client.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
@@ -267,3 +268,62 @@ def test_cancel_right_after_the_submit_of_a_fanout_job_leaves_no_child_queued(de
     for p in cancelled:
         kids = [j for j in jobs if j["parent_id"] == p]
         assert all(k["status"] in ("cancelled", "succeeded", "failed") for k in kids), kids
+
+
+def _evaluations_per_s(d: Deployment, seconds: float) -> float:
+    """Synchronous evaluations (random designs, one Mach, not stored) answered per second by a loop of 2 clients
+    for ``seconds``; every answer must be a 200 with a flutter result."""
+    rng, lock, done, errors = np.random.default_rng(7), threading.Lock(), [0], []
+    deadline = time.monotonic() + seconds
+
+    def loop() -> None:
+        while time.monotonic() < deadline:
+            with lock:
+                design = (np.array(DESIGN) * rng.uniform(0.9, 1.1, len(DESIGN))).tolist()
+            r = d.client.post(f"/api/v1/wings/{d.wing_id}/flutter", json={"design": design, "machs": [0.87],
+                                                                            "store": False})
+            with lock:
+                if r.status_code == 200 and r.json()["results"]:
+                    done[0] += 1
+                else:
+                    errors.append(f"{r.status_code} {r.text[:200]}")
+
+    t0 = time.monotonic()
+    threads = [threading.Thread(target=loop) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors[:5]
+    return done[0] / (time.monotonic() - t0)
+
+
+@pytest.mark.slow
+def test_a_running_training_leaves_evaluations_at_least_half_their_idle_throughput(tmp_path, postgres):
+    """The compose topology: one worker on the evaluation queue and one on the training queue (issue 15 saw 17
+    evaluations in 21.6 s instead of about 470 with one worker on both). While a transonic (TSD) training runs on
+    the training worker, synchronous evaluations keep at least 50 % of their idle throughput."""
+    with open_deployment(tmp_path, postgres, queues="evaluation") as d:
+        values = {"database_url": d.settings.database_url, "broker_url": d.redis.url, **FAST}
+        trainer = WorkerProcess(service_env(tmp_path / "data", **values), tmp_path / "trainer.log",
+                                concurrency=1, queues="training")
+        try:
+            seed_basis(d.store, d.wing_id)
+            first = wait_job(d.client, training_running(d, 0.87), 240)  # the DLM ROM the evaluations use
+            assert first["status"] == "succeeded", (first, trainer.log_tail())
+            _evaluations_per_s(d, 3.0)  # warm-up: models loaded into the evaluation worker's cache
+            idle = _evaluations_per_s(d, 10.0)
+            r = d.client.post(f"/api/v1/wings/{d.wing_id}/roms", json={"mach": 0.9, "solver": "tsd"})
+            assert r.status_code == 202, r.text
+            tsd = wait_job(d.client, r.json()["job_id"], 120, until=("running", "succeeded", "failed", "cancelled"))
+            assert tsd["status"] == "running", (tsd, trainer.log_tail())
+            time.sleep(2.0)  # past the numba start-up of the TSD, into the mean-flow iterations
+            busy = _evaluations_per_s(d, 10.0)
+            still = d.store.jobs.status(tsd["id"])
+            assert d.client.post(f"/api/v1/jobs/{tsd['id']}/cancel").status_code == 200
+        finally:
+            trainer.stop()
+    print(f"evaluations per second: idle {idle:.2f}, during a TSD training {busy:.2f} ({busy / idle:.0%})")
+    assert still == "running", "the training ended before the measurement did: the test measured nothing"
+    assert idle > 1.0, idle
+    assert busy >= 0.5 * idle, (busy, idle)
