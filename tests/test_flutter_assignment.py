@@ -83,3 +83,65 @@ def test_compiled_step_equals_numpy_step_on_real_searches(designs, monkeypatch):
                {"sweep": "constant-speed", "zeta": 0.01, "coupling": "zoh", **FLUTTER_OPTIONS}):  # alias unwrap
         flutter_batch(pairs, c_ref, 0.87, **kw)
     assert calls["n"] > 5000 and calls["content"] == calls["n"] and calls["swap"] <= 0.01 * calls["n"], calls
+
+
+def _may_cross_numpy(p, g):
+    """The numpy hump test the kernel replaced (tracking._may_cross before it was compiled)."""
+    p0, p1, p2 = p
+    if np.any(g[2] > tracking.G_UNSTABLE):
+        return False
+    d01 = (g[1] - g[0]) / (p1 - p0)
+    d12 = (g[2] - g[1]) / (p2 - p1)
+    err = np.abs(g[2] - (g[1] + d01 * (p2 - p1)))
+    c2 = (d12 - d01) / (p2 - p0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pv = 0.5 * (p1 + p2) - 0.5 * d12 / c2
+        gv = g[1] + (pv - p1) * (d12 + c2 * (pv - p2))
+    top = np.maximum(g[1], g[2])
+    top = np.where((c2 < 0) & (pv > p1) & (pv < p2), np.maximum(top, gv), top)
+    return bool(np.any(top + tracking.HUMP_ERR * err > tracking.HUMP_FLOOR))
+
+
+def _smooth_or_hump_numpy(sm, s0, s1, xm, x0, x1, omega, hump):
+    """The numpy smoothness and hump checks of Tracker._split before they were compiled."""
+    pred = s0 + (s0 - sm) * ((x1 - x0) / (x0 - xm))
+    if np.max(np.abs(s1 - pred) / np.maximum(np.abs(s0), omega)) > tracking.SMOOTH_TOL:
+        return True
+    if not hump:
+        return False
+    g = np.array([2.0 * s.real / np.abs(s) for s in (sm, s0, s1)])
+    return _may_cross_numpy((xm, x0, x1), g)
+
+
+@pytest.mark.filterwarnings("ignore:divide by zero:RuntimeWarning", "ignore:invalid value:RuntimeWarning")
+def test_refinement_checks_equal_their_numpy_form():
+    """Hump test, smoothness test and content jump on 5,000 random steps, many near their thresholds (damping
+    near 0, a parabola vertex inside the step, roots near the extrapolation limit, NaN content)."""
+    rng = np.random.default_rng(11)
+    omega = np.array([50.0, 120.0, 300.0, 420.0])
+    hits = np.zeros(3, int)
+    for _ in range(5000):
+        x = np.sort(rng.uniform(0.0, 1.0, 3))
+        if rng.uniform() < 0.05:
+            x[1] = x[0]  # a zero-length history step: inf and NaN handled as numpy does
+        g = rng.choice([1e-3, 1e-6, 1e-8])[()] * rng.standard_normal((3, 4)) - rng.uniform(0, 2e-6, (3, 4))
+        hump = tracking._may_cross(tuple(x), g)
+        assert hump == _may_cross_numpy(tuple(x), g), (x, g)
+        s0 = omega * (rng.uniform(-0.05, 0.01, 4) + 1j * rng.uniform(0.5, 1.5, 4))
+        sm = s0 * (1 + 0.2 * rng.standard_normal(4))
+        s1 = s0 + (s0 - sm) * ((x[2] - x[1]) / (x[1] - x[0]) if x[1] > x[0] else 1.0) \
+            + 0.3 * np.abs(s0) * rng.standard_normal(4) * rng.uniform()
+        flag = bool(rng.uniform() < 0.7)
+        got = tracking.not_smooth_or_hump(sm, s0, s1, *x, omega, flag,
+                                          np.array([tracking.SMOOTH_TOL, *tracking._hump_consts()]))
+        assert got == _smooth_or_hump_numpy(sm, s0, s1, *x, omega, flag)
+        c0 = rng.uniform(0, 1, 4)
+        c1 = c0 + 0.06 * rng.standard_normal(4)
+        c1[rng.uniform(size=4) < 0.1] = np.nan
+        a, b = tracking.Branches(s0, np.eye(8, 4), content=c0), tracking.Branches(s1, np.eye(8, 4), content=c1)
+        away = (np.abs(s0) > tracking.CONTENT_AWAY * omega) & (np.abs(s1) > tracking.CONTENT_AWAY * omega)
+        with np.errstate(invalid="ignore"):
+            ref = bool(np.any(away & (np.abs(c1 - c0) > tracking.CONTENT_JUMP)))
+        assert tracking._content_jump(a, b, omega) == ref
+        hits += [hump, got, ref]
+    assert np.all(hits > 250) and np.all(hits < 4750), hits  # both outcomes well represented

@@ -1,5 +1,6 @@
-"""Compiled kernel of one tracking step (``tracking.assign``): the assignment costs of the candidates of one sweep
-point to the k branches, their optimal assignment, and the step's diagnostics, in one numba call.
+"""Compiled kernels of one tracking step: ``assign_step`` (``tracking.assign``: the assignment costs of the
+candidates of one sweep point to the k branches, their optimal assignment and the step's diagnostics, in one numba
+call) and the refinement checks of ``tracking.Tracker._split`` (``content_jump``, ``not_smooth_or_hump``).
 
 The tracker calls the step about 230 times per structure (5 Machs); in numpy each call is some 30 small array
 operations plus ``scipy.optimize.linear_sum_assignment``, whose call overhead (about 80 us) is most of the
@@ -12,7 +13,8 @@ tracking time. The kernel computes the same numbers in the same order of operati
   unassigned column, as in scipy's implementation of the same method, so both give the same assignment;
 - the smallest assigned MAC, the largest relative jump and the near-tie gap (``tracking._tie_gap``).
 
-``tests/test_flutter_assignment.py`` checks the kernel against the numpy/scipy step on random and real steps.
+``tests/test_flutter_assignment.py`` checks the kernels against the numpy/scipy versions on random and real steps.
+All use numpy's error model (a division by zero gives inf or NaN, as in numpy, not an exception).
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numba as nb
 import numpy as np
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def lsap(cost: np.ndarray) -> np.ndarray:
     """Column of each row [nr] minimizing the summed cost [nr, nc] (nr <= nc, finite costs): shortest
     augmenting paths with dual updates (Crouse 2016); -1 for every row if no assignment exists."""
@@ -91,7 +93,7 @@ def lsap(cost: np.ndarray) -> np.ndarray:
     return col4row
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def _costs(prev_lam: np.ndarray, prev_vec: np.ndarray, lam_c: np.ndarray, a_c: np.ndarray, period: float,
            omega: np.ndarray, weight: float, lag_c: np.ndarray, content: np.ndarray, has_content: bool,
            consts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -148,7 +150,7 @@ def _costs(prev_lam: np.ndarray, prev_vec: np.ndarray, lam_c: np.ndarray, a_c: n
     return s, mac, dist, cost
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def assign_step(prev_lam: np.ndarray, prev_vec: np.ndarray, lam_c: np.ndarray, a_c: np.ndarray, period: float,
                 omega: np.ndarray, weight: float, lag_c: np.ndarray, content: np.ndarray, has_content: bool,
                 consts: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float, float, bool]:
@@ -182,3 +184,76 @@ def assign_step(prev_lam: np.ndarray, prev_vec: np.ndarray, lam_c: np.ndarray, a
                 runner = m2 if chosen == m1 else m1
                 gap = min(gap, runner - 1.5 * chosen - 0.002)
     return cols, new_lam, mac_min, jump, gap, lag
+
+
+@nb.njit(cache=True, error_model="numpy")
+def content_jump(prev_lam: np.ndarray, new_lam: np.ndarray, prev_content: np.ndarray, new_content: np.ndarray,
+                 omega: np.ndarray, away_f: float, jump_tol: float) -> bool:
+    """``tracking._content_jump``: some branch away from s = 0 changes its structural content by more than
+    ``jump_tol`` (NaN content: not computed, no jump)."""
+    for j in range(prev_lam.size):
+        if abs(prev_lam[j]) > away_f * omega[j] and abs(new_lam[j]) > away_f * omega[j]:
+            if abs(new_content[j] - prev_content[j]) > jump_tol:
+                return True
+    return False
+
+
+@nb.njit(cache=True, error_model="numpy")
+def not_smooth_or_hump(sm: np.ndarray, s0: np.ndarray, s1: np.ndarray, xm: float, x0: float, x1: float,
+                       omega: np.ndarray, hump: bool, consts: np.ndarray) -> bool:
+    """The smoothness and damping-hump checks of ``Tracker._split`` for branch roots sm, s0, s1 [k] at x (xm, x0,
+    x1): s1 farther than SMOOTH_TOL (relative) from the linear extrapolation, or (``hump``) ``may_cross`` on their
+    dampings g = 2 Re s / |s|; ``consts`` = (SMOOTH_TOL, G_UNSTABLE, HUMP_ERR, HUMP_FLOOR). NaNs as numpy's max: a
+    NaN deviation makes the smoothness check pass."""
+    smooth_tol = consts[0]
+    k = s0.size
+    worst = -np.inf
+    for j in range(k):
+        pred = s0[j] + (s0[j] - sm[j]) * ((x1 - x0) / (x0 - xm))
+        r = abs(s1[j] - pred) / max(abs(s0[j]), omega[j])
+        if math.isnan(r) or math.isnan(worst):
+            worst = np.nan
+        else:
+            worst = max(worst, r)
+    if worst > smooth_tol:
+        return True
+    if not hump:
+        return False
+    g0 = np.empty(k)
+    g1 = np.empty(k)
+    g2 = np.empty(k)
+    for j in range(k):
+        g0[j] = 2.0 * sm[j].real / abs(sm[j])
+        g1[j] = 2.0 * s0[j].real / abs(s0[j])
+        g2[j] = 2.0 * s1[j].real / abs(s1[j])
+    return may_cross(xm, x0, x1, g0, g1, g2, consts[1:])
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _nanmax(a: float, b: float) -> float:
+    """numpy's maximum of two floats (NaN if either is NaN)."""
+    return np.nan if math.isnan(a) or math.isnan(b) else max(a, b)
+
+
+@nb.njit(cache=True, error_model="numpy")
+def may_cross(p0: float, p1: float, p2: float, g0: np.ndarray, g1: np.ndarray, g2: np.ndarray,
+              consts: np.ndarray) -> bool:
+    """``tracking._may_cross`` on the dampings g0, g1, g2 [k] at p0 < p1 < p2; ``consts`` = (G_UNSTABLE, HUMP_ERR,
+    HUMP_FLOOR)."""
+    g_unstable, hump_err, hump_floor = consts[0], consts[1], consts[2]
+    for j in range(g2.size):
+        if g2[j] > g_unstable:
+            return False  # the crossing is bracketed by the new point itself
+    for j in range(g2.size):
+        d01 = (g1[j] - g0[j]) / (p1 - p0)
+        d12 = (g2[j] - g1[j]) / (p2 - p1)
+        err = abs(g2[j] - (g1[j] + d01 * (p2 - p1)))
+        c2 = (d12 - d01) / (p2 - p0)  # leading coefficient of the parabola
+        pv = 0.5 * (p1 + p2) - 0.5 * d12 / c2  # vertex: derivative d12 + c2 (2 p - p1 - p2) = 0
+        gv = g1[j] + (pv - p1) * (d12 + c2 * (pv - p2))
+        top = _nanmax(g1[j], g2[j])
+        if c2 < 0 and pv > p1 and pv < p2:
+            top = _nanmax(top, gv)
+        if top + hump_err * err > hump_floor:
+            return True
+    return False

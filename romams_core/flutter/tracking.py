@@ -30,7 +30,7 @@ from typing import Any, TypeVar
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .assignment import assign_step
+from .assignment import assign_step, content_jump, may_cross, not_smooth_or_hump
 from .eigen import EigData, EigRequest
 from .model import Model
 from .newton import Request
@@ -185,30 +185,24 @@ def _may_cross(p: tuple[float, float, float], g: np.ndarray) -> bool:
     (its vertex when it lies inside), with the error of the linear extrapolation from (p0, p1) to p2 as its
     uncertainty; a step is refined while that estimate plus its uncertainty reaches above ``HUMP_FLOOR``.
     The uncertainty falls with the square of the step, so the refinement ends unless a hump is there.
+    Compiled: ``assignment.may_cross``.
     """
-    p0, p1, p2 = p
-    if np.any(g[2] > G_UNSTABLE):
-        return False  # the crossing is bracketed by the new point itself
-    d01 = (g[1] - g[0]) / (p1 - p0)
-    d12 = (g[2] - g[1]) / (p2 - p1)
-    err = np.abs(g[2] - (g[1] + d01 * (p2 - p1)))
-    c2 = (d12 - d01) / (p2 - p0)  # leading coefficient of the parabola
-    with np.errstate(divide="ignore", invalid="ignore"):
-        pv = 0.5 * (p1 + p2) - 0.5 * d12 / c2  # vertex: derivative d12 + c2 (2 p - p1 - p2) = 0
-        gv = g[1] + (pv - p1) * (d12 + c2 * (pv - p2))
-    top = np.maximum(g[1], g[2])
-    top = np.where((c2 < 0) & (pv > p1) & (pv < p2), np.maximum(top, gv), top)
-    return bool(np.any(top + HUMP_ERR * err > HUMP_FLOOR))
+    g = np.asarray(g, dtype=float)
+    return bool(may_cross(float(p[0]), float(p[1]), float(p[2]), g[0], g[1], g[2], _hump_consts()))
+
+
+def _hump_consts() -> np.ndarray:
+    """(G_UNSTABLE, HUMP_ERR, HUMP_FLOOR), read at each call (tests vary them)."""
+    return np.array([G_UNSTABLE, HUMP_ERR, HUMP_FLOOR])
 
 
 def _content_jump(prev: Branches, new: Branches, omega: np.ndarray) -> bool:
     """True when some oscillatory branch's structural content changes by more than CONTENT_JUMP in one step (a
-    structural root and a lag root exchanging their character: refined so that the exchange is located)."""
+    structural root and a lag root exchanging their character: refined so that the exchange is located; NaN
+    content: not computed). Compiled: ``assignment.content_jump``."""
     if prev.content is None or new.content is None:
         return False
-    away = (np.abs(prev.lam) > CONTENT_AWAY * omega) & (np.abs(new.lam) > CONTENT_AWAY * omega)
-    with np.errstate(invalid="ignore"):
-        return bool(np.any(away & (np.abs(new.content - prev.content) > CONTENT_JUMP)))  # NaN: not computed
+    return bool(content_jump(prev.lam, new.lam, prev.content, new.content, omega, CONTENT_AWAY, CONTENT_JUMP))
 
 
 def _history(p: list[float], p1: float) -> int | None:
@@ -312,15 +306,10 @@ class Tracker:
         i = _history(path.x, x1)
         if i is None:
             return len(path.p) > 2  # a step too long for the history to check it: refine (not the first one)
-        xm, x0 = path.x[i], path.x[-1]
-        sm, s0 = path.states[i].lam, path.states[-1].lam
-        pred = s0 + (s0 - sm) * ((x1 - x0) / (x0 - xm))
-        if np.max(np.abs(new.lam - pred) / np.maximum(np.abs(s0), self.m.omega)) > SMOOTH_TOL:
-            return True
-        if i == 0:
-            return False  # g is not smooth in p at q = 0 (e.g. g ~ V^3 in a constant-density sweep)
-        g_new = 2.0 * new.lam.real / np.abs(new.lam)
-        return _may_cross((xm, x0, x1), np.array([path.g(i), path.g(-1), g_new]))
+        # s1 off the linear extrapolation from (x_i, x_last), or a damping hump (_may_cross) inside the step; not
+        # the hump from i = 0: g is not smooth in p at q = 0 (e.g. g ~ V^3 in a constant-density sweep)
+        return bool(not_smooth_or_hump(path.states[i].lam, path.states[-1].lam, new.lam, path.x[i], path.x[-1], x1,
+                                       self.m.omega, i != 0, np.array([SMOOTH_TOL, *_hump_consts()])))
 
     def _advance(self, path: Path, p1: float, e1: EigData, depth: int) -> Solve[None]:
         """Append the point p1 (eigen-data e1) to the path, refining the step when needed."""
