@@ -19,7 +19,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from celery import Task  # noqa: E402
-from celery.signals import worker_process_init  # noqa: E402
+from celery.signals import worker_init, worker_process_init  # noqa: E402
 
 from romams.persistence import DatabaseUnavailable  # noqa: E402
 from romams.services.queue import EVALUATION_QUEUE, TRAINING_QUEUE, celery_config, make_celery  # noqa: E402
@@ -46,6 +46,15 @@ def make_app(settings: Settings | None = None) -> Any:
 
 
 app = make_app()
+
+
+@worker_init.connect
+def _compile_kernels(**_: Any) -> None:
+    """Compile (or load from numba's cache) the flutter tracker's kernels in the main process, before the pool
+    forks: no evaluation waits for a compilation."""
+    from romams_core.flutter.assignment import warm_up
+
+    warm_up()
 
 
 @worker_process_init.connect

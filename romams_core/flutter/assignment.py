@@ -257,3 +257,21 @@ def may_cross(p0: float, p1: float, p2: float, g0: np.ndarray, g1: np.ndarray, g
         if top + hump_err * err > hump_floor:
             return True
     return False
+
+
+def warm_up() -> None:
+    """Compile every kernel for the tracker's array layouts (or load them from numba's cache): a worker calls it
+    before its first evaluation, ``make install`` and the image build fill the cache (the first compilation takes
+    10-20 s, a cached load under 1 s)."""
+    k, n = 2, 3
+    rng = np.random.default_rng(0)
+    lam = np.array([-1.0 + 10.0j, -2.0 + 30.0j])
+    vec = np.asfortranarray(rng.standard_normal((2 * k, k)) + 0j)
+    cand = np.array([-1.0 + 11.0j, -2.0 + 29.0j, -50.0 + 0.0j])
+    a_c = np.asfortranarray(rng.standard_normal((2 * k, n)) + 0j)
+    omega = np.array([10.0, 30.0])
+    consts = np.array([10.0, 2.0, 0.25, 0.5])
+    for content, has in ((np.zeros(0), False), (np.array([1.0, 1.0, 0.0]), True)):
+        assign_step(lam, vec, cand, a_c, np.inf, omega, 0.5, np.zeros(n, np.bool_), content, has, consts)
+    content_jump(lam, lam, np.ones(k), np.ones(k), omega, 0.5, 0.1)
+    not_smooth_or_hump(lam, lam, lam, 0.0, 1.0, 2.0, omega, True, np.array([0.3, 1e-9, 0.5, 1e-6]))

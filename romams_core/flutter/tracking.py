@@ -122,8 +122,11 @@ def assign(prev: Branches, e: EigData, weight: float, omega: np.ndarray) -> tupl
         return assign_numpy(prev, e, weight, omega)
     lag_c = np.zeros(lam_c.size, bool) if e.lag is None else e.lag[0]
     content = _NO_CONTENT if e.content is None else e.content[0]
+    c = np.ascontiguousarray  # one compiled signature: 1-D arrays contiguous, the vectors in Fortran order (no copy
+    f = np.asfortranarray  # for the solver's own layouts)
     cols, new_lam, mac_min, jump, gap, lag = assign_step(
-        prev.lam, prev.vec, lam_c, a_c, period, omega, float(weight), lag_c, content, e.content is not None,
+        c(prev.lam), f(prev.vec), c(lam_c), f(a_c), period, c(omega, dtype=float), float(weight), c(lag_c),
+        c(content, dtype=float), e.content is not None,
         np.array([LAG_PENALTY, W_CONTENT, VEER_DIST, CONTENT_AWAY]))  # read at each call (tests vary them)
     if cols[0] < 0:  # no finite assignment (cannot happen with the finite costs): the reference path decides
         return assign_numpy(prev, e, weight, omega)

@@ -80,6 +80,10 @@ def test_commands_name_real_code():
     importlib.import_module(flower[2])
     dockerfile = (ROOT / "Dockerfile").read_text()
     assert "uvicorn\", \"api.app:app\"" in dockerfile and "COPY migrations" in dockerfile
+    # the image compiles the tracker's numba kernels into a cache its user can read (the function exists)
+    assert "from romams_core.flutter.assignment import warm_up; warm_up()" in dockerfile
+    assert "ENV NUMBA_CACHE_DIR=" in dockerfile.split("USER romams")[1]
+    assert callable(importlib.import_module("romams_core.flutter.assignment").warm_up)
 
 
 def test_environment_variables_are_settings_fields():
