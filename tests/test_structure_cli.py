@@ -33,6 +33,15 @@ def test_modal_design_and_plot(tmp_path):
     assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_modal_design_in_repeated_options_equals_one_list():
+    """``--design x1=..,x2=..`` and ``--design x1=.. --design x2=..`` (and mixed) are the same design."""
+    outs = [json.loads(runner.invoke(app, ["modal", *args, "--json", "--modes", "2"]).output) for args in (
+        ["--design", DESIGN],
+        [a for item in DESIGN.split(",") for a in ("--design", item)],
+        ["--design", "x1=0.3,x2=0.5,x3=0.7", "--design", "x4=0.05,x5=1.0,x6=1.0,x7=0.8"])]
+    assert outs[0] == outs[1] == outs[2] and outs[0]["design"]["x7"] == 0.8
+
+
 def test_modal_goland_json():
     res = runner.invoke(app, ["modal", "--wing", "goland", "--json", "--modes", "2"])
     assert res.exit_code == 0, res.output
@@ -47,6 +56,7 @@ def test_modal_goland_json():
         (["--design", "x1=0.3"], "missing"),
         (["--design", DESIGN + ",x9=1"], "unknown"),
         (["--design", "x1"], "NAME=VALUE"),
+        (["--design", DESIGN, "--design", "x1=0.4"], "x1: given twice"),
         (["--wing", "no-such-wing"], "unknown template"),
     ],
 )

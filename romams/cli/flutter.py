@@ -76,7 +76,8 @@ def flight_condition(density: float | None, altitude: float | None, matched: boo
 def flutter_command(
     wing: str = typer.Option("cropped-delta", "--wing", help=WING_HELP),
     baseline: bool = typer.Option(False, "--baseline", help="evaluate the wing's baseline structure"),
-    design: str | None = typer.Option(None, "--design", help="design variables NAME=VALUE,... (all of them)"),
+    design: list[str] | None = typer.Option(None, "--design", help="design variables NAME=VALUE,... (all of them; "
+                                            "the option may be repeated)"),
     mach: list[float] = typer.Option([0.87], "--mach", help="Mach number (repeat for several; 0 = incompressible)"),
     density: float | None = typer.Option(None, "--density", help="constant-density sweep at RHO (kg/m^3)"),
     altitude: float | None = typer.Option(None, "--altitude", help="reference ISA altitude H (m); alone: "

@@ -36,13 +36,16 @@ def resolve_wing(name: str) -> WingDefinition:
         return found[1]
 
 
-def parse_design(text: str) -> dict[str, float]:
-    """Parse ``NAME=VALUE,NAME=VALUE`` into a mapping (values as floats)."""
+def parse_design(text: str | list[str]) -> dict[str, float]:
+    """Parse ``NAME=VALUE,NAME=VALUE`` (or several such options) into a mapping (values as floats)."""
     out: dict[str, float] = {}
-    for item in filter(None, (p.strip() for p in text.split(","))):
+    joined = text if isinstance(text, str) else ",".join(text)
+    for item in filter(None, (p.strip() for p in joined.split(","))):
         name, sep, value = item.partition("=")
         if not sep or not name.strip():
             raise typer.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="--design")
+        if name.strip() in out:
+            raise typer.BadParameter(f"{name.strip()}: given twice", param_hint="--design")
         try:
             out[name.strip()] = float(value)
         except ValueError:
@@ -70,7 +73,8 @@ def modal_summary(wing: WingDefinition, design: dict[str, float] | None, n_modes
 def modal(
     wing: str = typer.Option("cropped-delta", "--wing", help=WING_HELP),
     baseline: bool = typer.Option(False, "--baseline", help="Analyse the wing's baseline structure."),
-    design: str = typer.Option("", "--design", help="Design values NAME=VALUE,... (all variables)."),
+    design: list[str] | None = typer.Option(None, "--design", help="Design values NAME=VALUE,... (all variables; "
+                                            "the option may be repeated)."),
     modes: int = typer.Option(4, "--modes", min=1, max=50, help="Number of modes."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON only."),
     plot: str = typer.Option("", "--plot", help="Directory for mode-shape PNGs."),
