@@ -100,8 +100,8 @@ class RomRequest(_Strict):
     mach: FiniteFloat | None = Field(default=None, ge=0.0, lt=1.5)
     machs: list[FiniteFloat] | None = Field(default=None, min_length=1, max_length=20)
     solver: Literal["dlm", "uvlm", "tsd"] = "dlm"
-    na: int | None = Field(default=None, ge=1, le=40, description="ARX output order (default: the solver's, 12 "
-                           "for tsd, 8 for uvlm)")
+    na: int | None = Field(default=None, ge=1, le=40, description="ARX output order (default: the solver's, 8 "
+                           "for uvlm and tsd)")
     nb: int | None = Field(default=None, ge=1, le=40, description="ARX input order (default: the solver's)")
     basis_id: RowId | None = None
     options: dict[str, Any] = Field(default_factory=dict, description="extra keyword settings of the solver's "

@@ -208,7 +208,7 @@ class RomamsClient:
         """Start ROM training at one or several Mach numbers (one job each).
 
         ``solver``: "dlm" (doublet lattice, rational-function ROM; the default), "uvlm" or "tsd" (ARX ROMs, whose
-        orders ``na``/``nb`` apply; None: the server's default for the solver, 8 for uvlm and 12 for tsd).
+        orders ``na``/``nb`` apply; None: the server's default for the solver).
         Returns one item per Mach: ``{"mach", "job_id", "rom_id", "existing"}``
         (an already trained model or running job is returned instead of a new one).
         """

@@ -107,8 +107,7 @@ def flutter_command(
     mac: float = typer.Option(DEFAULT_MAC_THRESHOLD, "--mac", help="basis MAC threshold if the basis must be built"),
     solver: str = typer.Option(DEFAULT_SOLVER, "--solver", help="aerodynamic solver of the ROMs: dlm (doublet "
                                "lattice, default), uvlm, or tsd when installed (trained when missing)"),
-    na: int | None = typer.Option(None, "--na", min=1, max=40, help="ARX orders (time-domain solvers; default 12 "
-                                  "for tsd, 8 for uvlm)"),
+    na: int | None = typer.Option(None, "--na", min=1, max=40, help="ARX orders (time-domain solvers; default 8)"),
     nb: int | None = typer.Option(None, "--nb", min=1, max=40),
     plot: Path | None = typer.Option(None, "--plot", help="write V-g / V-omega plots (PNG and SVG) here"),
     plot_axis: str = typer.Option("tas", "--plot-axis", help="speed axis of the V-g plots: tas (true airspeed), "

@@ -38,7 +38,7 @@ def train_command(
                                "rational-function ROM), uvlm (time domain, ARX ROM) or tsd (transonic small "
                                "disturbance, minutes per Mach)"),
     na: int | None = typer.Option(None, "--na", min=0, max=64, help="ARX output delay order (time-domain solvers; "
-                                  "default 12 for tsd, 8 for uvlm)"),
+                                  "default 8)"),
     nb: int | None = typer.Option(None, "--nb", min=1, max=64, help="ARX input delay order (time-domain solvers; "
                                   "default as --na)"),
     reduce: str | None = typer.Option(None, "--reduce", help="balanced reduction of the ROM: 'auto' or a state "

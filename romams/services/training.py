@@ -87,7 +87,7 @@ UVLM_ORDERS = (8, 8)
 
 
 def default_orders(solver: str) -> tuple[int, int]:
-    """ARX orders (na, nb) of ``solver`` when a request names none: the TSD's (12/12, ``TSD_ORDERS``), 8/8 for the
+    """ARX orders (na, nb) of ``solver`` when a request names none: the TSD's (``TSD_ORDERS``, 8/8), 8/8 for the
     UVLM, 0/0 for a frequency-domain or imported model."""
     if is_frequency_solver(solver) or is_external(solver):
         return 0, 0
