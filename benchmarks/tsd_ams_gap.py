@@ -13,10 +13,11 @@ record (the basis ROM sees it through the projection), and the flutter points:
   both ROMs must land on it;
 - of ARX refits on the same TSD records at other orders (``--orders``; no new TSD run): how much of the spread is
   the identification.
-``--out DIR`` keeps the trained ROMs (pickle) and the transfer tables (NPZ) for follow-up fits.
+``--out DIR`` keeps the trained ROMs (pickle) and the transfer tables (NPZ) for follow-up fits; ``--basis-from DIR``
+reuses the basis ROM kept there (same Mach and orders: it is the same training for every design).
 
     python -m benchmarks.tsd_ams_gap [--design 2] [--mach 0.95] [--na 12] [--nb 12] [--k 0.05 0.1]
-        [--orders 8 10 12 14 16] [--grid-scale 1.0] [--processes 2] [--out DIR]
+        [--orders 8 10 12 14 16] [--grid-scale 1.0] [--processes 2] [--out DIR] [--basis-from DIR]
 """
 
 from __future__ import annotations
@@ -146,18 +147,27 @@ def analyse(rom_b: Any, rom_p: Any | None, gamma: np.ndarray, omega: np.ndarray,
 
 def run(design: int = 2, mach: float = 0.95, na: int = 12, nb: int = 12, ks: tuple[float, ...] = (0.05,),
         orders: tuple[int, ...] = (8, 10, 12, 14, 16), grid_scale: float = 1.0, processes: int = 2,
-        out: Path | None = None) -> dict[str, Any]:
+        out: Path | None = None, basis_from: Path | None = None) -> dict[str, Any]:
     """Train both ROMs, run the harmonic columns, compare (see the module docstring); a JSON-able dict."""
     t0 = time.perf_counter()
     wing, mesh, basis, modal = _setup(design)
     options = {"grid_scale": grid_scale} if grid_scale != 1.0 else None
     ident = {**rom_identity("tsd", na=na, nb=nb, options=options, wing=wing), "design": design}
     n_modes = modal.shapes.shape[1]
-    jobs = [("basis", -1, ident, mach, None), ("modes", -1, ident, mach, None)]
+    kept = None
+    if basis_from is not None:
+        with open(basis_from / "roms.pkl", "rb") as fh:
+            kept = pickle.load(fh)["basis"]
+        if abs(kept.mach - mach) > 1e-12 or (kept.na, kept.nb) != (na, nb):
+            raise SystemExit(f"--basis-from holds a Mach {kept.mach} ROM of orders {kept.na}/{kept.nb}, not {mach} "
+                             f"at {na}/{nb}")
+    jobs = [] if kept is not None else [("basis", -1, ident, mach, None)]
+    jobs += [("modes", -1, ident, mach, None)]
     jobs += [("harmonic", j, ident, mach, k) for k in ks for j in range(n_modes)]
     with get_context("spawn").Pool(processes) as pool:
         done = {key: (val, sec) for key, val, sec in pool.imap_unordered(_task, jobs)}
-    rom_b, rom_p = done[("basis", -1, None)][0], done[("modes", -1, None)][0]
+    rom_b = kept if kept is not None else done[("basis", -1, None)][0]
+    rom_p = done[("modes", -1, None)][0]
     gamma = project(basis.shapes, modal.shapes).gamma
     direct = np.array([np.column_stack([done[("harmonic", j, k)][0] for j in range(n_modes)]) for k in ks])
     res: dict[str, Any] = {"design": design, "mach": mach, "na": na, "nb": nb, "grid_scale": grid_scale,
@@ -197,9 +207,10 @@ def main() -> None:
     ap.add_argument("--grid-scale", type=float, default=1.0)
     ap.add_argument("--processes", type=int, default=2)
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--basis-from", type=Path, default=None, help="reuse the basis ROM an earlier --out kept")
     a = ap.parse_args()
     print(json.dumps(run(a.design, a.mach, a.na, a.nb, tuple(a.k), tuple(a.orders), a.grid_scale, a.processes,
-                         a.out)))
+                         a.out, a.basis_from)))
 
 
 if __name__ == "__main__":
