@@ -30,7 +30,8 @@ LINEARITY_TOL = 0.02
 #: default ARX orders (na, nb) of a TSD ROM. Measured on 3 cropped-delta designs (docs/transonic.md 7.2): 8/8 puts
 #: ROM-AMS 1.4-24 % below ROM-PMS (the safe side); 12/12 within 2 % at M 0.87 but up to 7.6 % above it at M 0.95
 #: (the unsafe side). Against direct harmonic TSD runs (benchmarks.tsd_ams_gap) that gap is ARX scatter of both ROMs
-#: at the low end of the band; refits at 14/14 are within 0.25 % at M 0.95, not yet checked at M 0.87: 8/8 stays
+#: at the low end of the band; refits at 14/14 are within 0.25 % at M 0.95 and 0.9 % at M 0.87 (one design), not
+#: yet a real 14/14 training on more designs: 8/8 stays
 TSD_ORDERS = (8, 8)
 
 #: further ARX orders tried on the same records when the requested ones miss nrmse_tol (a refit costs seconds; the
