@@ -39,7 +39,7 @@ from romams_core.wing import template
 RHO0 = density(0.0)
 
 
-def _eas(q: float | None) -> float | None:
+def eas(q: float | None) -> float | None:
     """Equivalent airspeed (m/s) of a flutter dynamic pressure q (Pa): the speed measure compared here (on the
     paper's constant-speed sweep the true speed is M a_ref for every structure; EAS carries q_f)."""
     return None if q is None else float(np.sqrt(2.0 * q / RHO0))
@@ -51,7 +51,7 @@ def _fom_one(args: tuple[Any, np.ndarray, np.ndarray, float, float, str, str]) -
     t0 = time.perf_counter()
     res, _ = fom_flutter(mesh, omega, shapes, mach, zeta=zeta, sweep=sweep, solver=make_solver(solver),
                          dk=0.1 if solver == "dlm" else 0.05)
-    return {"found": res.flutter_found, "v": _eas(res.q_flutter_pa), "omega": res.omega_flutter_rad_s,
+    return {"found": res.flutter_found, "v": eas(res.q_flutter_pa), "omega": res.omega_flutter_rad_s,
             "mode": res.flutter_mode, "q": res.q_flutter_pa, "seconds": time.perf_counter() - t0}
 
 
@@ -98,12 +98,12 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
             both = ams.flutter_found and pms.flutter_found
             rows.append({
                 "design": i, "mach": mach, "min_mac": float(np.min(mac)),
-                "v_ams": _eas(ams.q_flutter_pa), "v_pms": _eas(pms.q_flutter_pa),
+                "v_ams": eas(ams.q_flutter_pa), "v_pms": eas(pms.q_flutter_pa),
                 "omega_ams": ams.omega_flutter_rad_s, "omega_pms": pms.omega_flutter_rad_s,
                 "mode_ams": ams.flutter_mode, "mode_pms": pms.flutter_mode,
                 "found_ams": ams.flutter_found, "found_pms": pms.flutter_found,
                 "nrmse_ams": _worst_nrmse(roms[mach]), "nrmse_pms": _worst_nrmse(rom),
-                "v_error_pct": pct_error(_eas(ams.q_flutter_pa), _eas(pms.q_flutter_pa)) if both else None,
+                "v_error_pct": pct_error(eas(ams.q_flutter_pa), eas(pms.q_flutter_pa)) if both else None,
                 "omega_error_pct": 100.0 * (ams.omega_flutter_rad_s / pms.omega_flutter_rad_s - 1.0) if both else None,
             })
             if i < n_fom:
@@ -111,8 +111,8 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
                 rows[-1].update({
                     "v_fom": f["v"], "omega_fom": f["omega"], "mode_fom": f["mode"], "found_fom": f["found"],
                     "fom_seconds": f["seconds"],
-                    "v_error_ams_fom_pct": pct_error(_eas(ams.q_flutter_pa), f["v"]),
-                    "v_error_pms_fom_pct": pct_error(_eas(pms.q_flutter_pa), f["v"]),
+                    "v_error_ams_fom_pct": pct_error(eas(ams.q_flutter_pa), f["v"]),
+                    "v_error_pms_fom_pct": pct_error(eas(pms.q_flutter_pa), f["v"]),
                     "omega_error_ams_fom_pct": pct_error(ams.omega_flutter_rad_s, f["omega"]),
                     "omega_error_pms_fom_pct": pct_error(pms.omega_flutter_rad_s, f["omega"]),
                 })

@@ -32,11 +32,11 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.accuracy_rom_ams import eas, pct_error
 from benchmarks.tsd_harmonic_check import harmonic_column
 from romams.pipeline import rom_identity
 from romams.services.training import train
 from romams_core.arx import fit_arx, nrmse
-from romams_core.atmosphere import density
 from romams_core.basis import build_basis_for_wing, project, random_designs
 from romams_core.mesh import standard_mesh
 from romams_core.pk import pk_flutter
@@ -46,7 +46,6 @@ from romams_core.training_tsd import make_tsd_solver
 from romams_core.wing import template
 
 K_GRID = np.round(np.arange(0.01, 0.301, 0.01), 6)
-RHO0 = density(0.0)
 
 
 def corrected_aero(ss: DiscreteSS, ks: np.ndarray, direct: np.ndarray) -> Any:
@@ -68,8 +67,7 @@ def corrected_aero(ss: DiscreteSS, ks: np.ndarray, direct: np.ndarray) -> Any:
 def pk_point(aero: Any, omega: np.ndarray, c_ref: float, mach: float, zeta: float) -> dict[str, Any]:
     """p-k flutter point (EAS m/s, rad/s, mode) of harmonic aerodynamics ``aero`` (callable k -> GAF)."""
     p = pk_flutter(omega, aero, c_ref, mach, zeta=zeta)
-    v = None if p.q_flutter_pa is None else float(np.sqrt(2.0 * p.q_flutter_pa / RHO0))
-    return {"v_eas": v, "omega": p.omega_flutter_rad_s, "mode": p.flutter_mode}
+    return {"v_eas": eas(p.q_flutter_pa), "omega": p.omega_flutter_rad_s, "mode": p.flutter_mode}
 
 
 def refit(rom: Any, order: int) -> DiscreteSS | None:
@@ -102,11 +100,6 @@ def _task(args: tuple[str, int, dict[str, Any], float, Any]) -> tuple[tuple[str,
     return (kind, col, k), out, time.perf_counter() - t0
 
 
-def _pct(a: float | None, ref: float | None) -> float | None:
-    """100 (a / ref - 1), None when either is missing."""
-    return None if a is None or ref is None else 100.0 * (a / ref - 1.0)
-
-
 def analyse(rom_b: Any, rom_p: Any | None, gamma: np.ndarray, omega: np.ndarray, c_ref: float, mach: float,
             zeta: float, ks: np.ndarray, direct: np.ndarray, orders: tuple[int, ...] = ()) -> dict[str, Any]:
     """Compare the basis ROM (through gamma [m, k]) and the own-mode ROM (optional) with the direct TSD GAF columns
@@ -129,9 +122,9 @@ def analyse(rom_b: Any, rom_p: Any | None, gamma: np.ndarray, omega: np.ndarray,
         res["flutter"][f"{name}_corrected"] = pk_point(corrected_aero(ss, ks, direct), omega, c_ref, mach, zeta)
     fom = res["flutter"]["ams_corrected"]["v_eas"]  # the TSD's own flutter point (both corrected ROMs agree)
     for name in models:
-        res["flutter"][f"{name}_vs_tsd_pct"] = _pct(res["flutter"][name]["v_eas"], fom)
+        res["flutter"][f"{name}_vs_tsd_pct"] = pct_error(res["flutter"][name]["v_eas"], fom)
     if "pms" in models:
-        res["flutter"]["corrected_ams_vs_pms_pct"] = _pct(fom, res["flutter"]["pms_corrected"]["v_eas"])
+        res["flutter"]["corrected_ams_vs_pms_pct"] = pct_error(fom, res["flutter"]["pms_corrected"]["v_eas"])
     for order in orders:
         for name, rom, to in (("ams", rom_b, gamma), ("pms", rom_p, None)):
             ss = None if rom is None else refit(rom, order)
@@ -139,13 +132,13 @@ def analyse(rom_b: Any, rom_p: Any | None, gamma: np.ndarray, omega: np.ndarray,
                 continue
             ss_m = ss if to is None else to_modal(ss, to)
             point = pk_point(lambda k, s=ss_m: s.freqresp(np.atleast_1d(k)), omega, c_ref, mach, zeta)
-            res["refits"].append({"rom": name, "order": order, **point, "vs_tsd_pct": _pct(point["v_eas"], fom),
+            res["refits"].append({"rom": name, "order": order, **point, "vs_tsd_pct": pct_error(point["v_eas"], fom),
                                   "validation_nrmse_max_pct": float(100 * nrmse(
                                       rom.gac_validation, ss.simulate(rom.signals_validation)).max())})
     return res
 
 
-def run(design: int = 2, mach: float = 0.95, na: int = 12, nb: int = 12, ks: tuple[float, ...] = (0.05,),
+def run(design: int = 2, mach: float = 0.95, na: int = 12, nb: int = 12, ks: tuple[float, ...] = (0.05, 0.1),
         orders: tuple[int, ...] = (8, 10, 12, 14, 16), grid_scale: float = 1.0, processes: int = 2,
         out: Path | None = None, basis_from: Path | None = None) -> dict[str, Any]:
     """Train both ROMs, run the harmonic columns, compare (see the module docstring); a JSON-able dict."""
