@@ -14,7 +14,7 @@ errors against it are reported (rows: ``v_fom``, ``v_error_ams_fom_pct``, ``v_er
 ``fom``).
 
     python -m benchmarks.accuracy_rom_ams [--designs 20] [--machs 0.79 0.83 0.87 0.91 0.95] [--fom 3]
-        [--solver dlm|uvlm|tsd] [--grid-scale G] [--processes P] [--json]
+        [--solver dlm|uvlm|tsd] [--na NA --nb NB] [--grid-scale G] [--processes P] [--json]
 """
 
 from __future__ import annotations
@@ -163,11 +163,13 @@ def main() -> None:
                     help="full-order p-k reference (the solver's own GAF) for the first N designs at every Mach")
     ap.add_argument("--solver", default="dlm", choices=["dlm", "uvlm", "tsd"])
     ap.add_argument("--grid-scale", type=float, default=None, help="tsd: grid cell counts times this")
+    ap.add_argument("--na", type=int, default=None, help="ARX output order (default: the solver's)")
+    ap.add_argument("--nb", type=int, default=None, help="ARX input order (default: the solver's)")
     ap.add_argument("--processes", type=int, default=None, help="training processes (default: CPU count)")
     ap.add_argument("--json", action="store_true", help="print the full JSON (default: summary only)")
     a = ap.parse_args()
     options = {"grid_scale": a.grid_scale} if a.solver == "tsd" and a.grid_scale is not None else None
-    ident = rom_identity(a.solver, options=options, wing=template("cropped-delta"))
+    ident = rom_identity(a.solver, a.na, a.nb, options=options, wing=template("cropped-delta"))
     res = run(a.designs, tuple(a.machs), sweep=a.sweep, fom=a.fom, ident=ident, processes=a.processes)
     if not a.json:
         res = {k: v for k, v in res.items() if k != "rows"}

@@ -20,6 +20,7 @@ Cases (reference data in docs/aerodynamics.md section 14):
 One TSD training per point takes minutes (``--processes`` trains Mach numbers in parallel).
 
     python -m benchmarks.validate_tsd [--cases agard,cropped,study,linear] [--plot docs] [--processes 2]
+        [--na NA --nb NB]
 """
 
 from __future__ import annotations
@@ -74,6 +75,13 @@ def _guarded(fn: Any) -> Any:
 
 
 @_guarded
+def _identity(solver: str, options: dict[str, Any], wing: Any) -> dict[str, Any]:
+    """The ROM identity of a job: ``options`` may carry the ARX orders as "na"/"nb" (None: the solver's default)."""
+    opts = dict(options)
+    na, nb = opts.pop("na", None), opts.pop("nb", None)
+    return rom_identity(solver, na, nb, options=opts, wing=wing)
+
+
 def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     """Train one ROM on the AGARD wing's own modes and find its flutter point at the experimental density."""
     mach, solver, options = args
@@ -82,7 +90,7 @@ def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     modal = modal_analysis(wing, None, 4, mesh)
     rho, v_exp, w_exp = AGARD_EXPERIMENT[mach]
     t0 = time.perf_counter()
-    rom = train(mesh, modal.shapes, mach, rom_identity(solver, options=options, wing=wing))
+    rom = train(mesh, modal.shapes, mach, _identity(solver, options, wing))
     seconds = time.perf_counter() - t0
     # matched Mach, as in the tunnel: V = V_exp fixed, the density swept; the flutter dynamic pressure at the
     # experimental density gives the equivalent speed sqrt(2 q_f / rho_exp) and the FSI
@@ -119,7 +127,7 @@ def _cropped_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     mesh = standard_mesh(wing.planform)
     modal = modal_analysis(wing, None, 4, mesh)
     t0 = time.perf_counter()
-    rom = train(mesh, modal.shapes, mach, rom_identity(solver, options=options, wing=wing))
+    rom = train(mesh, modal.shapes, mach, _identity(solver, options, wing))
     seconds = time.perf_counter() - t0
     r = flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, zeta=wing.modal_damping)  # as validate_dlm
     q = r.q_flutter_pa
@@ -164,7 +172,7 @@ def _linear_point(args: tuple[str, float, dict[str, Any]]) -> dict[str, Any]:
     modal = modal_analysis(wing, None, 4, mesh)
     flat = {"thickness_form": None, "thickness_to_chord": 0.0, **options}
     t0 = time.perf_counter()
-    tsd = train(mesh, modal.shapes, mach, rom_identity("tsd", options=flat, wing=wing))
+    tsd = train(mesh, modal.shapes, mach, _identity("tsd", flat, wing))
     seconds = time.perf_counter() - t0
     dlm = train(mesh, modal.shapes, mach, rom_identity("dlm", wing=wing))
     ref = DlmSolver().gaf(mesh, modal.shapes, mach, LINEAR_K)
@@ -189,6 +197,8 @@ def main() -> None:
     ap.add_argument("--grid-scale", type=float, default=1.0)
     ap.add_argument("--study-mach", type=float, default=0.960)
     ap.add_argument("--nrmse-tol", type=float, default=None, help="TSD ARX validation tolerance (default 0.05)")
+    ap.add_argument("--na", type=int, default=None, help="TSD ARX output order (default: TSD_ORDERS)")
+    ap.add_argument("--nb", type=int, default=None, help="TSD ARX input order (default: TSD_ORDERS)")
     ap.add_argument("--processes", type=int, default=1)
     ap.add_argument("--plot", default=None, help="directory for agard_flutter_tsd.png")
     a = ap.parse_args()
@@ -196,6 +206,7 @@ def main() -> None:
     base = {} if a.grid_scale == 1.0 else {"grid_scale": a.grid_scale}
     if a.nrmse_tol is not None:
         base["nrmse_tol"] = a.nrmse_tol
+    base.update({k: v for k, v in (("na", a.na), ("nb", a.nb)) if v is not None})
     out: dict[str, Any] = {"grid_scale": a.grid_scale}
     t0 = time.perf_counter()
     if "agard" in cases:
@@ -209,8 +220,8 @@ def main() -> None:
         out["cropped"] = parallel_map(_cropped_point, [(0.87, "tsd", base), (0.87, "dlm", {})], a.processes)
     if "study" in cases:
         m = a.study_mach
-        variants = [base, {**base, "tsd_dt": 0.01}, {"grid_scale": 0.625 * a.grid_scale},
-                    {"grid_scale": 1.25 * a.grid_scale}]
+        variants = [base, {**base, "tsd_dt": 0.01}, {**base, "grid_scale": 0.625 * a.grid_scale},
+                    {**base, "grid_scale": 1.25 * a.grid_scale}]
         rows = parallel_map(_agard_point, [(m, "tsd", v) for v in variants], a.processes)
         ref = rows[0].get("v_f")
         for r in rows:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from romams_core.errors import InputError
+from romams_core.validation import check_number
 
 __all__ = ["Excitation", "multisine", "excitation_signals", "displacement_amplitude", "cross_correlation"]
 
@@ -40,9 +41,14 @@ def _taper(n_steps: int, n_taper: int) -> np.ndarray:
 
 
 def multisine(
-    n_steps: int, n_signals: int, dt_star: float, k_max: float, rng: np.random.Generator, taper_chords: float = 5.0
+    n_steps: int, n_signals: int, dt_star: float, k_max: float, rng: np.random.Generator, taper_chords: float = 5.0,
+    low_k_corner: float = 0.0,
 ) -> np.ndarray:
-    """Random-phase flat-spectrum multisines [T, m] on 0 < k <= k_max, tapered, then made exactly orthonormal.
+    """Random-phase multisines [T, m] on 0 < k <= k_max, tapered, then made exactly orthonormal.
+
+    Line amplitudes sqrt(1 + low_k_corner / k): a flat spectrum for ``low_k_corner`` 0, else the power below the
+    corner (reduced frequency on the root semichord) raised as 1 / k, so the few lines a record resolves at low k
+    carry more of the signal.
 
     Orthogonalization (symmetric, S^-1/2) mixes the columns linearly, so the result stays band-limited and
     tapered while its columns have zero mutual inner product; each column has unit RMS.
@@ -63,8 +69,10 @@ def multisine(
         )
     if 2.0 * k_max * dt_star >= math.pi:
         raise InputError("dt_star", f"{dt_star:g} cannot resolve k_max = {k_max:g} (2 k dt* must be < pi)")
+    check_number("low_k_corner", low_k_corner, 0.0, strict=False, upper=float(k_max), upper_strict=False)
     spec = np.zeros((omega.size, n_signals), dtype=complex)
-    spec[band] = np.exp(2j * math.pi * rng.random((n_band, n_signals)))
+    amplitude = np.sqrt(1.0 + low_k_corner / (0.5 * omega[band]))
+    spec[band] = amplitude[:, None] * np.exp(2j * math.pi * rng.random((n_band, n_signals)))
     x = np.fft.irfft(spec, n=n_steps, axis=0)
     n_taper = min(n_steps // 4, int(round(taper_chords / dt_star)))
     x *= _taper(n_steps, n_taper)[:, None]
@@ -87,8 +95,10 @@ def excitation_signals(
     k_max: float = 1.5,
     seed: int = 0,
     displacement_fraction: float = 0.01,
+    low_k_corner: float = 0.0,
 ) -> Excitation:
-    """Training and independent validation signals [T, m] for shapes [N, m] (m); peak displacement ~ fraction c_ref."""
+    """Training and independent validation signals [T, m] for shapes [N, m] (m); peak displacement ~ fraction c_ref
+    (``low_k_corner``: see ``multisine``)."""
     shapes = np.asarray(shapes, dtype=float)
     if shapes.ndim != 2:
         raise InputError("shapes", f"expected [N, m], got shape {shapes.shape}")
@@ -97,8 +107,8 @@ def excitation_signals(
     if not (0 < displacement_fraction < 0.2):
         raise InputError("displacement_fraction", f"must be in (0, 0.2), got {displacement_fraction!r}")
     m = shapes.shape[1]
-    train = multisine(n_steps, m, dt_star, k_max, np.random.default_rng([seed, 0]))
-    val = multisine(n_steps, m, dt_star, k_max, np.random.default_rng([seed, 1]))
+    train = multisine(n_steps, m, dt_star, k_max, np.random.default_rng([seed, 0]), low_k_corner=low_k_corner)
+    val = multisine(n_steps, m, dt_star, k_max, np.random.default_rng([seed, 1]), low_k_corner=low_k_corner)
     peak = max(displacement_amplitude(shapes, train), displacement_amplitude(shapes, val))
     if not peak > 0:
         raise InputError("shapes", "all-zero shapes cannot be excited")

@@ -138,6 +138,7 @@ def train_rom(
     displacement_fraction: float = 0.01,
     order_fallbacks: tuple[tuple[int, int], ...] = (),
     symmetry: str | None = None,
+    low_k_corner: float = 0.0,
 ) -> TrainedRom:
     """Identify an ARX ROM of ``solver`` for shapes [N, m] (m) at ``mach``; one solver run trains and validates.
 
@@ -156,6 +157,7 @@ def train_rom(
     first that meets it is kept (with a note), else the error names the best one.
     ``symmetry``: the root plane's (symmetric, antisymmetric, none: a free wing) for a solver that models it
     (``UvlmSolver.symmetry``, ``TsdSolver.symmetry``); None keeps the solver's.
+    ``low_k_corner``: signal power raised as 1 / k below this reduced frequency (``signals.multisine``; 0 flat).
     """
     t_start = time.perf_counter()
     mach = check_mach(mach)
@@ -172,7 +174,7 @@ def train_rom(
     if not (isinstance(n_steps, int | np.integer) and n_steps >= 16):
         raise InputError("n_steps", f"must be an integer >= 16, got {n_steps!r}")
     exc = excitation_signals(shapes, mesh.c_ref, int(n_steps), dt_star, k_max=k_max, seed=seed,
-                             displacement_fraction=displacement_fraction)
+                             displacement_fraction=displacement_fraction, low_k_corner=low_k_corner)
 
     def _solver_progress(frac: float, msg: str) -> None:
         if progress is not None:

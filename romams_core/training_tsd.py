@@ -54,7 +54,8 @@ def tsd_grid_spec(grid_scale: float = 1.0) -> GridSpec:
 
 def check_tsd_settings(n_shapes: int | None = None, *, thickness_form: str | None = None,
                        thickness_to_chord: float = 0.0, grid_scale: float = 1.0, tsd_dt: float = 0.02,
-                       coefficients: str = "ames", symmetry: str | None = None, **_: Any) -> None:
+                       coefficients: str = "ames", symmetry: str | None = None, low_k_corner: float = 0.0,
+                       k_max: float = 1.5, **_: Any) -> None:
     """Validate TSD training settings (InputError naming the field); ``n_shapes`` also checks the grid size."""
     check_thickness(thickness_form, thickness_to_chord)
     if symmetry is not None:
@@ -64,6 +65,8 @@ def check_tsd_settings(n_shapes: int | None = None, *, thickness_form: str | Non
         raise InputError("coefficients", f"must be one of {COEFFICIENT_SETS}, got {coefficients!r}")
     if not (isinstance(tsd_dt, int | float) and math.isfinite(tsd_dt) and 0.0 < tsd_dt <= 0.05):
         raise InputError("tsd_dt", f"must be in (0, 0.05] (t*; larger steps are unstable), got {tsd_dt!r}")
+    check_number("k_max", k_max, 0.0)
+    check_number("low_k_corner", low_k_corner, 0.0, strict=False, upper=float(k_max), upper_strict=False)
     if n_shapes is not None:
         columns = spec.n_chord * spec.n_span
         if columns < MIN_WING_COLUMNS_PER_SHAPE * n_shapes:
@@ -103,6 +106,7 @@ def train_tsd_rom(
     linearity_check: bool = False,
     progress: ProgressFn | None = None,
     symmetry: str | None = None,
+    low_k_corner: float = 0.0,
 ) -> TrainedRom:
     """ARX ROM of the TSD solver for shapes [N, m] (m) at ``mach`` about the steady mean flow of the section.
 
@@ -118,14 +122,16 @@ def train_tsd_rom(
     shapes = np.asarray(shapes, dtype=float)
     m = shapes.shape[1] if shapes.ndim == 2 else 1
     check_tsd_settings(m, thickness_form=thickness_form, thickness_to_chord=thickness_to_chord,
-                       grid_scale=grid_scale, tsd_dt=tsd_dt, coefficients=coefficients, symmetry=symmetry)
+                       grid_scale=grid_scale, tsd_dt=tsd_dt, coefficients=coefficients, symmetry=symmetry,
+                       low_k_corner=low_k_corner, k_max=k_max)
     solver = solver or make_tsd_solver(thickness_form, thickness_to_chord, grid_scale, tsd_dt, coefficients)
     solver = cast(TsdSolver, with_symmetry(solver, symmetry))  # replaced before the run: its mean flow is read below
     if n_steps is None:
         n_steps = tsd_n_steps(m, na, nb, dt_star)
     rom = train_rom(mesh, shapes, mach, solver, na=na, nb=nb, k_max=k_max, n_steps=n_steps, dt_star=dt_star,
                     seed=seed, nrmse_tol=nrmse_tol, reduce_order=reduce_order, progress=progress,
-                    displacement_fraction=displacement_fraction, order_fallbacks=ORDER_FALLBACKS)
+                    displacement_fraction=displacement_fraction, order_fallbacks=ORDER_FALLBACKS,
+                    low_k_corner=low_k_corner)
     rom.solver = "tsd"
     worst = float(np.max(rom.validation_nrmse))
     if worst > 0.02:

@@ -49,6 +49,26 @@ def test_signals_are_band_limited_uncorrelated_tapered_and_scaled():
         multisine(40, 3, dt, 0.01, np.random.default_rng(0))
 
 
+
+def test_low_k_corner_raises_the_low_frequency_power_as_one_over_k():
+    """Power share below k 0.1 of the signal against the share of the line amplitudes sqrt(1 + c / k), within 10 %
+    (taper and orthonormalization leak a little between lines); corner 0 is the flat spectrum, bit for bit."""
+    dt, k_max, n = 0.1, 1.5, 3584
+    k = np.pi * np.fft.rfftfreq(n, d=dt)  # reduced frequency of each line (omega = 2 k per unit t*)
+    line = (k > 0) & (k <= k_max)
+    flat = multisine(n, 8, dt, k_max, np.random.default_rng(3))
+    np.testing.assert_array_equal(flat, multisine(n, 8, dt, k_max, np.random.default_rng(3), low_k_corner=0.0))
+    for corner in (0.0, 0.1, 0.3):
+        x = multisine(n, 8, dt, k_max, np.random.default_rng(3), low_k_corner=corner)
+        assert np.abs(cross_correlation(x) - np.eye(8)).max() < 1e-10
+        power = (np.abs(np.fft.rfft(x, axis=0)) ** 2).sum(axis=1)
+        share = power[k < 0.1].sum() / power.sum()
+        weight = 1.0 + corner / k[line]
+        assert share == pytest.approx(weight[k[line] < 0.1].sum() / weight.sum(), rel=0.1)
+    assert share > 4 * (np.abs(np.fft.rfft(flat, axis=0)[k < 0.1]) ** 2).sum() / (np.abs(np.fft.rfft(flat, axis=0))
+                                                                                 ** 2).sum()
+    with pytest.raises(ValueError, match="low_k_corner"):
+        multisine(n, 8, dt, k_max, np.random.default_rng(3), low_k_corner=2.0)
 def test_train_rom_on_synthetic_shapes_and_tolerance_failure():
     mesh, shapes = _synthetic()
     solver = UvlmSolver(wake_chords=10.0)

@@ -133,6 +133,10 @@ def test_training_errors_once_a_basis_exists(client, tmp_path):
     problem(client.post(roms, json={"mach": 0.9, "options": {"tsd_dt": 0.5}, **tsd}), 422, "options.tsd_dt")
     problem(client.post(roms, json={"mach": 0.9, "options": {"coefficients": "x"}, **tsd}), 422,
             "options.coefficients")
+    problem(client.post(roms, json={"mach": 0.9, "options": {"low_k_corner": 2.0}, **tsd}), 422,
+            "options.low_k_corner", "<= 1.5")
+    problem(client.post(roms, json={"mach": 0.9, "options": {"low_k_corner": 0.2, "k_max": 0.1}, **tsd}), 422,
+            "options.low_k_corner", "<= 0.1")
     assert _counts(client) == before
 
 
