@@ -28,10 +28,10 @@ LINEARITY_TOL = 0.02
 
 
 #: default ARX orders (na, nb) of a TSD ROM. Measured on 3 cropped-delta designs (docs/transonic.md 7.2): 8/8 puts
-#: ROM-AMS 1.4-24 % below ROM-PMS (the safe side); 12/12 within 2 % at M 0.87 but up to 7.6 % above it at M 0.95
-#: (the unsafe side). Against direct harmonic TSD runs (benchmarks.tsd_ams_gap) that gap is ARX scatter of both ROMs
-#: at the low end of the band; refits at 14/14 are within 0.25 % at M 0.95 and 0.9 % at M 0.87 (one design), not
-#: yet a real 14/14 training on more designs: 8/8 stays
+#: ROM-AMS 1.4-24 % below ROM-PMS (the safe side); 12/12 up to 7.6 % above it at M 0.95. Against direct harmonic
+#: TSD runs (benchmarks.tsd_ams_gap) that is scatter of the 8-shape basis ROM's low-k GAF: a real 14/14 training
+#: was 7.8 % low on one design where a 14/14 refit of other records was within 0.2 %, and no order 8-16 or input
+#: spectrum (low_k_corner) held all designs within 2 %. 8/8 stays: it was on the safe side wherever measured
 TSD_ORDERS = (8, 8)
 
 #: further ARX orders tried on the same records when the requested ones miss nrmse_tol (a refit costs seconds; the
