@@ -12,7 +12,7 @@ plain and anchored: ROM-AMS flutter (p-k on the model's GAF, EAS m/s) of designs
 0.95) and the free-run validation NRMSE on the training's validation record.
 
     python -m benchmarks.tsd_anchor [--mach 0.95] [--k 0.05 0.1] [--orders 6 8 10 12]
-        [--reference 60.37 101.19 92.07] [--processes 2]
+        [--reference 60.37 101.19 92.07] [--processes 2] [--out DIR]
 """
 
 from __future__ import annotations
@@ -20,8 +20,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import pickle
 import time
 from multiprocessing import get_context
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -88,8 +90,9 @@ def _flutter(ss: DiscreteSS, setups: list[Any], reference: tuple[float, ...], ma
 
 
 def run(mach: float = 0.95, ks: tuple[float, ...] = (0.05, 0.1), orders: tuple[int, ...] = (6, 8, 10, 12),
-        reference: tuple[float, ...] = REFERENCE_M095, processes: int = 2) -> dict[str, Any]:
-    """Train, run the tones, refit with and without anchors, compare; a JSON-able dict."""
+        reference: tuple[float, ...] = REFERENCE_M095, processes: int = 2, out: Path | None = None) -> dict[str, Any]:
+    """Train, run the tones, refit with and without anchors, compare; a JSON-able dict (``out``: keep the ROM and
+    the direct columns there as roms.pkl for further fits without a TSD run)."""
     t0 = time.perf_counter()
     _, _, basis, _ = _setup(0)
     m = basis.shapes.shape[1]
@@ -98,8 +101,12 @@ def run(mach: float = 0.95, ks: tuple[float, ...] = (0.05, 0.1), orders: tuple[i
         done = {key: (val, sec) for key, val, sec in pool.imap_unordered(_task, jobs)}
     rom = done[("train", -1)][0]
     direct = np.stack([done[("tone", j)][0] for j in range(m)], axis=2)  # [n_k, m, m]: column j from run j
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        with open(out / "roms.pkl", "wb") as fh:
+            pickle.dump({"basis": rom, "k": np.array(ks), "direct": direct}, fh)
     setups = [_setup(d) for d in range(len(reference))]
-    out: dict[str, Any] = {"mach": mach, "k": list(ks), "na": rom.na, "nb": rom.nb, "reference": list(reference),
+    res: dict[str, Any] = {"mach": mach, "k": list(ks), "na": rom.na, "nb": rom.nb, "reference": list(reference),
                            "seconds": {f"{kind}{'' if c < 0 else c}": sec for (kind, c), (_, sec) in done.items()},
                            "trained_model_error_at_k_of_max_pct": [float(100 * np.abs(h - d).max() / np.abs(d).max())
                                                                     for h, d in zip(rom.ss.freqresp(np.array(ks)),
@@ -113,9 +120,9 @@ def run(mach: float = 0.95, ks: tuple[float, ...] = (0.05, 0.1), orders: tuple[i
             for name, model in (("plain", ss), ("anchored", anchored)):
                 row[name] = {**_flutter(model, setups, reference, mach), "validation_nrmse_max_pct": float(
                     100 * nrmse(rom.gac_validation, model.simulate(rom.signals_validation)).max())}
-        out["fits"].append(row)
-    out["wall_s"] = time.perf_counter() - t0
-    return out
+        res["fits"].append(row)
+    res["wall_s"] = time.perf_counter() - t0
+    return res
 
 
 def main() -> None:
@@ -126,8 +133,9 @@ def main() -> None:
     ap.add_argument("--orders", type=int, nargs="+", default=[6, 8, 10, 12])
     ap.add_argument("--reference", type=float, nargs="+", default=list(REFERENCE_M095))
     ap.add_argument("--processes", type=int, default=2)
+    ap.add_argument("--out", type=Path, default=None, help="directory for roms.pkl (the ROM and the direct columns)")
     a = ap.parse_args()
-    print(json.dumps(run(a.mach, tuple(a.k), tuple(a.orders), tuple(a.reference), a.processes), indent=1))
+    print(json.dumps(run(a.mach, tuple(a.k), tuple(a.orders), tuple(a.reference), a.processes, a.out), indent=1))
 
 
 if __name__ == "__main__":
