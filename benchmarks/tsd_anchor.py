@@ -31,6 +31,7 @@ import numpy as np
 from benchmarks.accuracy_rom_ams import pct_error
 from benchmarks.tsd_ams_gap import _setup, pk_point
 from benchmarks.tsd_excitation import REFERENCE_M095
+from benchmarks.tsd_harmonic_check import tone_amplitudes
 from romams.services.training import rom_identity, section_options, train
 from romams_core.arx import fit_arx, nrmse
 from romams_core.basis import project
@@ -39,15 +40,6 @@ from romams_core.training_tsd import make_tsd_solver
 
 #: peak surface displacement of a harmonic run, fraction of c_ref (as benchmarks.tsd_harmonic_check)
 PEAK = 0.002
-
-
-def tone_amplitudes(x: np.ndarray, t: np.ndarray, omegas: np.ndarray) -> np.ndarray:
-    """Complex amplitudes [n_tones, ...] of x ~ sum Re(c_j e^{i w_j t}) + const by least squares (x [T] or [T, p])."""
-    cols = [np.ones_like(t)]
-    for w in omegas:
-        cols += [np.cos(w * t), -np.sin(w * t)]
-    coef = np.linalg.lstsq(np.column_stack(cols), x, rcond=None)[0]
-    return coef[1::2] + 1j * coef[2::2]
 
 
 def two_tone_column(solver: Any, mesh: Any, shapes: np.ndarray, mach: float, ks: tuple[float, ...], col: int,

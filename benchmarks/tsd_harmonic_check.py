@@ -45,9 +45,16 @@ def first_harmonic(x: np.ndarray, t: np.ndarray, om: float) -> np.ndarray:
     Exact for a sinusoid on any window. The plain sum of x e^{-i om t} over a window that is not a whole number of
     samples per period leaks the e^{+i om t} half: 33.07 samples per period (k 0.95, dt* 0.1) made 5 % of magnitude.
     """
-    basis = np.column_stack([np.cos(om * t), -np.sin(om * t), np.ones_like(t)])
-    coef = np.linalg.lstsq(basis, x, rcond=None)[0]
-    return coef[0] + 1j * coef[1]
+    return tone_amplitudes(x, t, np.array([om]))[0]
+
+
+def tone_amplitudes(x: np.ndarray, t: np.ndarray, omegas: np.ndarray) -> np.ndarray:
+    """Complex amplitudes [n_tones, ...] of x ~ sum Re(c_j e^{i w_j t}) + const by least squares (x [T] or [T, p])."""
+    cols = [np.ones_like(t)]
+    for w in omegas:
+        cols += [np.cos(w * t), -np.sin(w * t)]
+    coef = np.linalg.lstsq(np.column_stack(cols), x, rcond=None)[0]
+    return coef[1::2] + 1j * coef[2::2]
 
 
 def main() -> None:

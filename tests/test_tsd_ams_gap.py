@@ -53,7 +53,8 @@ def test_two_tone_run_returns_a_linear_systems_transfer_columns() -> None:
     GAF columns of the moved shape come back to 1e-6 of the model's transfer matrix (z = exp(i 2 k dt*))."""
     from types import SimpleNamespace
 
-    from benchmarks.tsd_anchor import tone_amplitudes, two_tone_column
+    from benchmarks.tsd_anchor import two_tone_column
+    from benchmarks.tsd_harmonic_check import tone_amplitudes
 
     ss = _ss(3)
 
