@@ -74,7 +74,6 @@ def _guarded(fn: Any) -> Any:
     return run
 
 
-@_guarded
 def _identity(solver: str, options: dict[str, Any], wing: Any) -> dict[str, Any]:
     """The ROM identity of a job: ``options`` may carry the ARX orders as "na"/"nb" (None: the solver's default)."""
     opts = dict(options)
@@ -82,6 +81,7 @@ def _identity(solver: str, options: dict[str, Any], wing: Any) -> dict[str, Any]
     return rom_identity(solver, na, nb, options=opts, wing=wing)
 
 
+@_guarded
 def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     """Train one ROM on the AGARD wing's own modes and find its flutter point at the experimental density."""
     mach, solver, options = args
