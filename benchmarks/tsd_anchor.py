@@ -28,18 +28,13 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.accuracy_rom_ams import pct_error
-from benchmarks.tsd_ams_gap import _setup, pk_point
-from benchmarks.tsd_excitation import REFERENCE_M095
-from benchmarks.tsd_harmonic_check import tone_amplitudes
+from benchmarks.tsd_ams_gap import _setup, refit
+from benchmarks.tsd_excitation import REFERENCE_M095, ams_flutter
+from benchmarks.tsd_harmonic_check import PEAK, tone_amplitudes
 from romams.services.training import rom_identity, section_options, train
-from romams_core.arx import fit_arx, nrmse
-from romams_core.basis import project
-from romams_core.statespace import DiscreteSS, arx_to_ss, refit_output_map, to_modal
+from romams_core.arx import nrmse
+from romams_core.statespace import refit_output_map
 from romams_core.training_tsd import make_tsd_solver
-
-#: peak surface displacement of a harmonic run, fraction of c_ref (as benchmarks.tsd_harmonic_check)
-PEAK = 0.002
 
 
 def two_tone_column(solver: Any, mesh: Any, shapes: np.ndarray, mach: float, ks: tuple[float, ...], col: int,
@@ -71,16 +66,6 @@ def _task(args: tuple[str, int, float, tuple[float, ...]]) -> tuple[tuple[str, i
     return (kind, col), out, time.perf_counter() - t0
 
 
-def _flutter(ss: DiscreteSS, setups: list[Any], reference: tuple[float, ...], mach: float) -> dict[str, Any]:
-    """ROM-AMS p-k flutter (EAS m/s) of each design through ``ss`` and its error against the reference."""
-    v = []
-    for wing, mesh, basis, modal in setups:
-        ams = to_modal(ss, project(basis.shapes, modal.shapes).gamma)
-        v.append(pk_point(lambda k, s=ams: s.freqresp(np.atleast_1d(k)), modal.omega, mesh.c_ref, mach,
-                          wing.modal_damping)["v_eas"])
-    return {"v_eas": v, "vs_tsd_pct": [pct_error(a, r) for a, r in zip(v, reference, strict=True)]}
-
-
 def run(mach: float = 0.95, ks: tuple[float, ...] = (0.05, 0.1), orders: tuple[int, ...] = (6, 8, 10, 12),
         reference: tuple[float, ...] = REFERENCE_M095, processes: int = 2, out: Path | None = None) -> dict[str, Any]:
     """Train, run the tones, refit with and without anchors, compare; a JSON-able dict (``out``: keep the ROM and
@@ -105,12 +90,13 @@ def run(mach: float = 0.95, ks: tuple[float, ...] = (0.05, 0.1), orders: tuple[i
                                                                                     direct, strict=True)],
                            "fits": []}
     for order in orders:
-        ss = arx_to_ss(fit_arx(rom.signals_train, rom.gac_train, order, order, dt_star=rom.dt_star), rom.dt_star)
-        row: dict[str, Any] = {"order": order, "n_states": ss.n_states, "stable": bool(ss.spectral_radius() < 1.0)}
-        if row["stable"]:
+        ss = refit(rom, order)
+        row: dict[str, Any] = {"order": order, "stable": ss is not None}
+        if ss is not None:
+            row["n_states"] = ss.n_states
             anchored = refit_output_map(ss, rom.signals_train, rom.gac_train, np.array(ks), direct)
             for name, model in (("plain", ss), ("anchored", anchored)):
-                row[name] = {**_flutter(model, setups, reference, mach), "validation_nrmse_max_pct": float(
+                row[name] = {**ams_flutter(model, setups, reference, mach), "validation_nrmse_max_pct": float(
                     100 * nrmse(rom.gac_validation, model.simulate(rom.signals_validation)).max())}
         res["fits"].append(row)
     res["wall_s"] = time.perf_counter() - t0

@@ -26,7 +26,7 @@ from benchmarks.tsd_ams_gap import _setup, pk_point, refit
 from romams.services.training import rom_identity, train
 from romams_core.arx import nrmse
 from romams_core.basis import project
-from romams_core.statespace import to_modal
+from romams_core.statespace import DiscreteSS, to_modal
 
 #: the TSD's own flutter points (EAS m/s) of designs 0, 1, 2 at M 0.95 (benchmarks.tsd_ams_gap, docs/transonic.md 7.2)
 REFERENCE_M095 = (60.37, 101.19, 92.07)
@@ -40,6 +40,17 @@ def _train(args: tuple[float, float, int, int]) -> tuple[float, Any, float]:
     options = {"low_k_corner": corner} if corner > 0 else None
     rom = train(mesh, basis.shapes, mach, rom_identity("tsd", na, nb, options=options, wing=wing))
     return corner, rom, time.perf_counter() - t0
+
+
+def ams_flutter(ss: DiscreteSS, setups: list[Any], reference: tuple[float, ...], mach: float) -> dict[str, Any]:
+    """ROM-AMS p-k flutter (EAS m/s) of each design (``tsd_ams_gap._setup``) through the basis model ``ss`` and its
+    error against the reference (%)."""
+    v = []
+    for wing, mesh, basis, modal in setups:
+        ams = to_modal(ss, project(basis.shapes, modal.shapes).gamma)
+        v.append(pk_point(lambda k, s=ams: s.freqresp(np.atleast_1d(k)), modal.omega, mesh.c_ref, mach,
+                          wing.modal_damping)["v_eas"])
+    return {"v_eas": v, "vs_tsd_pct": [pct_error(a, r) for a, r in zip(v, reference, strict=True)]}
 
 
 def run(mach: float = 0.95, corners: tuple[float, ...] = (0.0, 0.1), na: int = 14, nb: int = 14,
@@ -58,15 +69,9 @@ def run(mach: float = 0.95, corners: tuple[float, ...] = (0.0, 0.1), na: int = 1
             if ss is None:
                 fits.append({"order": order, "unstable": True})
                 continue
-            row: dict[str, Any] = {"order": order, "validation_nrmse_max_pct": float(100 * nrmse(
-                rom.gac_validation, ss.simulate(rom.signals_validation)).max()), "v_eas": [], "vs_tsd_pct": []}
-            for (wing, _, basis, modal), ref in zip(setups, reference, strict=True):
-                ams = to_modal(ss, project(basis.shapes, modal.shapes).gamma)
-                p = pk_point(lambda k, s=ams: s.freqresp(np.atleast_1d(k)), modal.omega, rom.c_ref, mach,
-                             wing.modal_damping)
-                row["v_eas"].append(p["v_eas"])
-                row["vs_tsd_pct"].append(pct_error(p["v_eas"], ref))
-            fits.append(row)
+            fits.append({"order": order, "validation_nrmse_max_pct": float(100 * nrmse(
+                rom.gac_validation, ss.simulate(rom.signals_validation)).max()),
+                **ams_flutter(ss, setups, reference, mach)})
         ok = [abs(e) for f in fits for e in f.get("vs_tsd_pct", []) if e is not None]
         out["corners"].append({"low_k_corner": corner, "train_seconds": seconds, "n_steps": int(rom.gac_train.shape[0]),
                                "validation_nrmse_max_pct": float(100 * np.max(rom.validation_nrmse)),

@@ -24,6 +24,9 @@ from romams_core.structure.modal import modal_analysis
 from romams_core.training_tsd import make_tsd_solver
 from romams_core.wing import template
 
+#: peak surface displacement of a harmonic run, fraction of c_ref
+PEAK = 0.002
+
 
 def harmonic_column(solver, mesh, shapes: np.ndarray, mach: float, k: float, col: int,  # noqa: ANN001
                     dts: float = 0.1, cycles: int | None = None) -> np.ndarray:
@@ -34,7 +37,7 @@ def harmonic_column(solver, mesh, shapes: np.ndarray, mach: float, k: float, col
     ramp = np.minimum(1.0, t / (2 * math.pi / om))
     last = t >= t[-1] - 2 * math.pi / om
     sig = np.zeros((t.size, shapes.shape[1]))
-    sig[:, col] = 0.002 * mesh.c_ref / np.abs(shapes[:, col]).max() * np.sin(om * t) * ramp
+    sig[:, col] = PEAK * mesh.c_ref / np.abs(shapes[:, col]).max() * np.sin(om * t) * ramp
     gac = solver.simulate(mesh, shapes, sig, mach, dts)
     return first_harmonic(gac[last], t[last], om) / first_harmonic(sig[last, col], t[last], om)
 

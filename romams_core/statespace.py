@@ -348,9 +348,9 @@ def _anchor_rows(ss: DiscreteSS, k: np.ndarray, gaf: np.ndarray, p: int) -> tupl
 
 def constrained_lstsq(x: np.ndarray, y: np.ndarray, e: np.ndarray, g: np.ndarray) -> np.ndarray:
     """theta minimizing ||x theta - y|| subject to e theta = g (null-space method; e of full row rank)."""
-    theta0 = np.linalg.lstsq(e, g, rcond=None)[0]
-    _, sv, vt = np.linalg.svd(e)
+    us, sv, vt = np.linalg.svd(e)
     rank = int(np.sum(sv > sv[0] * max(e.shape) * np.finfo(float).eps))
+    theta0 = vt[:rank].T @ ((us[:, :rank].T @ g) / sv[:rank, None])  # the minimum-norm solution of e theta = g
     null = vt[rank:].T  # [q, q - rank]
     z = np.linalg.lstsq(x @ null, y - x @ theta0, rcond=None)[0]
     return theta0 + null @ z
