@@ -14,7 +14,11 @@ errors against it are reported (rows: ``v_fom``, ``v_error_ams_fom_pct``, ``v_er
 ``fom``).
 
     python -m benchmarks.accuracy_rom_ams [--designs 20] [--machs 0.79 0.83 0.87 0.91 0.95] [--fom 3]
-        [--solver dlm|uvlm|tsd] [--na NA --nb NB] [--grid-scale G] [--processes P] [--json]
+        [--solver dlm|uvlm|tsd] [--na NA --nb NB] [--grid-scale G] [--anchor-k K ...] [--anchor-pms]
+        [--processes P] [--json]
+
+``--anchor-k`` (tsd): the basis ROMs are trained with the option ``anchor_k`` (direct harmonic runs of each basis
+shape at those k, ``romams_core.anchors``); the ROM-PMS ROMs too with ``--anchor-pms``, else plain.
 """
 
 from __future__ import annotations
@@ -68,8 +72,9 @@ def pct_error(a: float | None, ref: float | None) -> float | None:
 
 def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: int = 25, mac_threshold: float = 0.9999,
         max_basis: int = 8, seed: int = 7, sweep: str = "constant-speed", processes: int | None = None,
-        ident: dict[str, Any] | None = None, fom: int = 0) -> dict[str, Any]:
-    """Run the comparison (full-order p-k reference for the first ``fom`` designs); returns a JSON-able dict."""
+        ident: dict[str, Any] | None = None, fom: int = 0, pms_ident: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Run the comparison (full-order p-k reference for the first ``fom`` designs; ``pms_ident``: the ROM-PMS
+    ROMs' identity when it differs from the basis ROMs' ``ident``); returns a JSON-able dict."""
     t0 = time.perf_counter()
     wing = template("cropped-delta")
     mesh = standard_mesh(wing.planform)
@@ -81,7 +86,11 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
     # factorizes its AICs once per Mach for all of them; pms_roms[i * n_mach + j] is design i at Mach j
     from romams.pipeline import parallel_map, train_shape_sets
 
-    trained = train_shape_sets(mesh, [basis.shapes, *(m.shapes for m in modals)], machs, ident, processes)
+    if pms_ident is None or pms_ident == ident:
+        trained = train_shape_sets(mesh, [basis.shapes, *(m.shapes for m in modals)], machs, ident, processes)
+    else:
+        trained = (train_shape_sets(mesh, [basis.shapes], machs, ident, processes)
+                   + train_shape_sets(mesh, [m.shapes for m in modals], machs, pms_ident, processes))
     roms = dict(zip(machs, trained[0], strict=True))
     pms_roms = [r for rs in trained[1:] for r in rs]
     n_fom = min(max(int(fom), 0), n_designs)
@@ -146,7 +155,8 @@ def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: in
     worst = max((r for r in rows if r["v_error_pct"] is not None), key=lambda r: abs(r["v_error_pct"]), default=None)
     return {
         "designs": n_designs, "machs": list(machs), "sweep": sweep, "n_basis": int(basis.n_basis),
-        "basis_min_mac": float(basis.min_mac), "solver": ident["solver"],
+        "basis_min_mac": float(basis.min_mac), "solver": ident["solver"], "options": ident.get("options"),
+        "pms_options": (pms_ident or ident).get("options"),
         "all": stats(rows), "mac_ge_0_99": stats(good), "worst": worst, "rows": rows,
         "fom": fom_stats([r for r in rows if "v_fom" in r]) if n_fom else None,
         "wall_s": time.perf_counter() - t0,
@@ -165,12 +175,19 @@ def main() -> None:
     ap.add_argument("--grid-scale", type=float, default=None, help="tsd: grid cell counts times this")
     ap.add_argument("--na", type=int, default=None, help="ARX output order (default: the solver's)")
     ap.add_argument("--nb", type=int, default=None, help="ARX input order (default: the solver's)")
+    ap.add_argument("--anchor-k", type=float, nargs="+", default=None,
+                    help="tsd: anchor the basis ROMs to direct harmonic runs at these reduced frequencies")
+    ap.add_argument("--anchor-pms", action="store_true", help="tsd: anchor the ROM-PMS ROMs too")
     ap.add_argument("--processes", type=int, default=None, help="training processes (default: CPU count)")
     ap.add_argument("--json", action="store_true", help="print the full JSON (default: summary only)")
     a = ap.parse_args()
-    options = {"grid_scale": a.grid_scale} if a.solver == "tsd" and a.grid_scale is not None else None
-    ident = rom_identity(a.solver, a.na, a.nb, options=options, wing=template("cropped-delta"))
-    res = run(a.designs, tuple(a.machs), sweep=a.sweep, fom=a.fom, ident=ident, processes=a.processes)
+    options = {"grid_scale": a.grid_scale} if a.solver == "tsd" and a.grid_scale is not None else {}
+    wing = template("cropped-delta")
+    pms_ident = rom_identity(a.solver, a.na, a.nb, options=options, wing=wing)
+    ident = pms_ident if a.anchor_k is None else rom_identity(a.solver, a.na, a.nb, wing=wing,
+                                                              options={**options, "anchor_k": list(a.anchor_k)})
+    res = run(a.designs, tuple(a.machs), sweep=a.sweep, fom=a.fom, ident=ident, processes=a.processes,
+              pms_ident=ident if a.anchor_pms else pms_ident)
     if not a.json:
         res = {k: v for k, v in res.items() if k != "rows"}
     print(json.dumps(res, indent=None if a.json else 2))

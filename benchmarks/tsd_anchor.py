@@ -2,24 +2,26 @@
 
 ROM-AMS needs the basis ROM right where a design's flutter is decided; on the cropped delta at M 0.95 that is
 k 0.05-0.06, where the ARX fit of an 8-shape basis scatters by several percent (docs/transonic.md 7.2). Here the
-basis ROM (``benchmarks.accuracy_rom_ams``'s basis, default TSD settings) is trained once; each basis shape is
-then run alone in the TSD with a two-tone motion at the ``--k`` pair (one run gives the shape's GAF column at
-both: the analysis window is one period of the lower tone, a whole number of periods of both). The ARX models of
-``--orders`` (refits on the training's records, full realizations) get their output map refitted to the records
-subject to reproducing those columns exactly (``statespace.refit_output_map`` with anchors). Reported per order,
-plain and anchored: ROM-AMS flutter (p-k on the model's GAF, EAS m/s) of designs 0-2 against the TSD's own points
-(``--reference``, the harmonic-corrected points of ``benchmarks.tsd_ams_gap``: 60.37 / 101.19 / 92.07 m/s at M
-0.95) and the free-run validation NRMSE on the training's validation record.
+basis ROM (``benchmarks.accuracy_rom_ams``'s basis, default TSD settings) is trained once, and beside it each
+basis shape is run alone in the TSD with a multi-tone motion at the ``--k`` set (``anchors.harmonic_anchors``:
+the columns of the transfer matrix there). The trained ROM and ARX refits of ``--orders`` on its records (full
+realizations) are compared plain and with the lag correction that reproduces those columns exactly
+(``anchors.anchored``, what the training option ``anchor_k`` does). Reported per model: ROM-AMS flutter of
+designs 0-2 against the TSD's own points (``--reference``: 60.37 / 101.19 / 92.07 m/s EAS at M 0.95, the
+harmonic-corrected points of ``benchmarks.tsd_ams_gap``), by p-k on the model's GAF and by the product's
+state-space search (``evaluate_structure``, constant-speed sweep), and the free-run validation NRMSE.
 
     python -m benchmarks.tsd_anchor [--mach 0.95] [--k 0.05 0.1] [--orders 6 8 10 12]
-        [--reference 60.37 101.19 92.07] [--processes 2] [--out DIR]
+        [--reference 60.37 101.19 92.07] [--processes 2] [--out DIR | --load DIR]
+
+``--out DIR`` keeps the trained ROM and the direct columns in DIR/roms.pkl; ``--load DIR`` refits from there
+without a TSD run (seconds).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import pickle
 import time
 from multiprocessing import get_context
@@ -28,77 +30,85 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.accuracy_rom_ams import eas, pct_error
 from benchmarks.tsd_ams_gap import _setup, refit
 from benchmarks.tsd_excitation import REFERENCE_M095, ams_flutter
-from benchmarks.tsd_harmonic_check import PEAK, tone_amplitudes
+from benchmarks.tsd_harmonic_check import PEAK
 from romams.services.training import rom_identity, section_options, train
+from romams_core.anchors import anchored, harmonic_anchors
 from romams_core.arx import nrmse
-from romams_core.statespace import refit_output_map
+from romams_core.evaluate import evaluate_structure
+from romams_core.statespace import DiscreteSS
 from romams_core.training_tsd import make_tsd_solver
 
 
-def two_tone_column(solver: Any, mesh: Any, shapes: np.ndarray, mach: float, ks: tuple[float, ...], col: int,
-                    dts: float = 0.1) -> np.ndarray:
-    """GAF columns [n_k, m] (m^3 per unit generalized displacement) of shape ``col`` moving alone at the tones ks
-    (reduced frequency on c_ref / 2): a one-period ramp of the lowest tone, a quarter period for the transient of
-    the ramp's end to leave, then one analysed period."""
-    om = 2.0 * np.asarray(ks, dtype=float)
-    period = 2.0 * math.pi / om.min()
-    t = np.arange(int(round(2.25 * period / dts)) + 1) * dts
-    ramp = np.minimum(1.0, t / period)
-    sig = np.zeros((t.size, shapes.shape[1]))
-    amp = PEAK * mesh.c_ref / np.abs(shapes[:, col]).max() / om.size
-    sig[:, col] = amp * np.sin(np.outer(t, om)).sum(axis=1) * ramp
-    gac = solver.simulate(mesh, shapes, sig, mach, dts)
-    last = t >= t[-1] - period
-    return tone_amplitudes(gac[last], t[last], om) / tone_amplitudes(sig[last, col], t[last], om)[:, None]
-
-
-def _task(args: tuple[str, int, float, tuple[float, ...]]) -> tuple[tuple[str, int], Any, float]:
-    """Worker: ("train", -1, mach, -) the basis ROM; ("tone", j, mach, ks) basis shape j's two-tone run."""
-    kind, col, mach, ks = args
+def _task(args: tuple[str, float, tuple[float, ...]]) -> tuple[str, Any, float]:
+    """Worker: ("train", mach, -) the basis ROM; ("anchors", mach, ks) the basis shapes' direct columns."""
+    kind, mach, ks = args
     t0 = time.perf_counter()
     wing, mesh, basis, _ = _setup(0)
     if kind == "train":
         out = train(mesh, basis.shapes, mach, rom_identity("tsd", wing=wing))
     else:
-        out = two_tone_column(make_tsd_solver(**section_options(wing)), mesh, basis.shapes, mach, ks, col)
-    return (kind, col), out, time.perf_counter() - t0
+        out = harmonic_anchors(make_tsd_solver(**section_options(wing)), mesh, basis.shapes, mach, np.array(ks),
+                               peak_fraction=PEAK)
+    return kind, out, time.perf_counter() - t0
+
+
+def state_space_flutter(ss: DiscreteSS, c_ref: float, setups: list[Any], reference: tuple[float, ...],
+                        mach: float) -> list[float | None]:
+    """The product's ROM-AMS flutter (state-space search, constant-speed sweep) of each design: error against the
+    reference (%), None where no flutter was found."""
+    out = []
+    for (wing, _, basis, modal), ref in zip(setups, reference, strict=True):
+        res = evaluate_structure(modal, basis.shapes, {mach: (ss, c_ref)}, zeta=wing.modal_damping).flutter[0]
+        out.append(pct_error(eas(res.q_flutter_pa), ref) if res.flutter_found else None)
+    return out
+
+
+def _compare(name: str, ss: DiscreteSS, rom: Any, setups: list[Any], reference: tuple[float, ...],
+             mach: float) -> dict[str, Any]:
+    """One model's row: states, validation NRMSE, p-k and state-space ROM-AMS errors against the reference."""
+    val = nrmse(rom.gac_validation, ss.simulate(rom.signals_validation))
+    return {"model": name, "n_states": ss.n_states, "stable": bool(ss.is_stable()),
+            "validation_nrmse_max_pct": float(100 * val.max()),
+            "pk_vs_tsd_pct": ams_flutter(ss, setups, reference, mach)["vs_tsd_pct"],
+            "state_space_vs_tsd_pct": state_space_flutter(ss, rom.c_ref, setups, reference, mach)}
 
 
 def run(mach: float = 0.95, ks: tuple[float, ...] = (0.05, 0.1), orders: tuple[int, ...] = (6, 8, 10, 12),
-        reference: tuple[float, ...] = REFERENCE_M095, processes: int = 2, out: Path | None = None) -> dict[str, Any]:
-    """Train, run the tones, refit with and without anchors, compare; a JSON-able dict (``out``: keep the ROM and
-    the direct columns there as roms.pkl for further fits without a TSD run)."""
+        reference: tuple[float, ...] = REFERENCE_M095, processes: int = 2, out: Path | None = None,
+        load: Path | None = None) -> dict[str, Any]:
+    """Train and run the tones (or ``load`` them), correct, compare; a JSON-able dict."""
     t0 = time.perf_counter()
-    _, _, basis, _ = _setup(0)
-    m = basis.shapes.shape[1]
-    jobs = [("train", -1, mach, ks)] + [("tone", j, mach, ks) for j in range(m)]
-    with get_context("spawn").Pool(processes) as pool:
-        done = {key: (val, sec) for key, val, sec in pool.imap_unordered(_task, jobs)}
-    rom = done[("train", -1)][0]
-    direct = np.stack([done[("tone", j)][0] for j in range(m)], axis=2)  # [n_k, m, m]: column j from run j
+    seconds: dict[str, float] = {}
+    if load is not None:
+        with open(load / "roms.pkl", "rb") as fh:
+            saved = pickle.load(fh)  # noqa: S301 - this benchmark's own file
+        rom, direct, ks = saved["basis"], saved["direct"], tuple(float(k) for k in saved["k"])
+    else:
+        with get_context("spawn").Pool(min(processes, 2)) as pool:
+            done = {kind: (val, sec) for kind, val, sec in pool.imap_unordered(
+                _task, [("train", mach, ks), ("anchors", mach, ks)])}
+        (rom, seconds["train"]), (direct, seconds["anchors"]) = done["train"], done["anchors"]
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         with open(out / "roms.pkl", "wb") as fh:
             pickle.dump({"basis": rom, "k": np.array(ks), "direct": direct}, fh)
     setups = [_setup(d) for d in range(len(reference))]
+    k = np.array(ks)
     res: dict[str, Any] = {"mach": mach, "k": list(ks), "na": rom.na, "nb": rom.nb, "reference": list(reference),
-                           "seconds": {f"{kind}{'' if c < 0 else c}": sec for (kind, c), (_, sec) in done.items()},
-                           "trained_model_error_at_k_of_max_pct": [float(100 * np.abs(h - d).max() / np.abs(d).max())
-                                                                    for h, d in zip(rom.ss.freqresp(np.array(ks)),
-                                                                                    direct, strict=True)],
-                           "fits": []}
-    for order in orders:
-        ss = refit(rom, order)
-        row: dict[str, Any] = {"order": order, "stable": ss is not None}
-        if ss is not None:
-            row["n_states"] = ss.n_states
-            anchored = refit_output_map(ss, rom.signals_train, rom.gac_train, np.array(ks), direct)
-            for name, model in (("plain", ss), ("anchored", anchored)):
-                row[name] = {**ams_flutter(model, setups, reference, mach), "validation_nrmse_max_pct": float(
-                    100 * nrmse(rom.gac_validation, model.simulate(rom.signals_validation)).max())}
-        res["fits"].append(row)
+                           "seconds": seconds, "trained_model_error_at_k_of_max_pct": [
+                               float(100 * np.abs(h - d).max() / np.abs(d).max())
+                               for h, d in zip(rom.ss.freqresp(k), direct, strict=True)], "models": []}
+    models: list[tuple[str, DiscreteSS | None]] = [("trained", rom.ss)]
+    models += [(f"refit {o}/{o}", refit(rom, o)) for o in orders]
+    for name, ss in models:
+        if ss is None:
+            res["models"].append({"model": name, "stable": False})
+            continue
+        res["models"].append({"plain": _compare(name, ss, rom, setups, reference, mach),
+                              "anchored": _compare(name, anchored(ss, k, direct), rom, setups, reference, mach)})
     res["wall_s"] = time.perf_counter() - t0
     return res
 
@@ -112,8 +122,10 @@ def main() -> None:
     ap.add_argument("--reference", type=float, nargs="+", default=list(REFERENCE_M095))
     ap.add_argument("--processes", type=int, default=2)
     ap.add_argument("--out", type=Path, default=None, help="directory for roms.pkl (the ROM and the direct columns)")
+    ap.add_argument("--load", type=Path, default=None, help="directory of a roms.pkl to refit without a TSD run")
     a = ap.parse_args()
-    print(json.dumps(run(a.mach, tuple(a.k), tuple(a.orders), tuple(a.reference), a.processes, a.out), indent=1))
+    print(json.dumps(run(a.mach, tuple(a.k), tuple(a.orders), tuple(a.reference), a.processes, a.out, a.load),
+                     indent=1))
 
 
 if __name__ == "__main__":

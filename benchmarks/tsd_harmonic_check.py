@@ -19,6 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from romams_core.aero.dlm import DlmSolver
+from romams_core.anchors import tone_amplitudes
 from romams_core.mesh import standard_mesh
 from romams_core.structure.modal import modal_analysis
 from romams_core.training_tsd import make_tsd_solver
@@ -49,15 +50,6 @@ def first_harmonic(x: np.ndarray, t: np.ndarray, om: float) -> np.ndarray:
     samples per period leaks the e^{+i om t} half: 33.07 samples per period (k 0.95, dt* 0.1) made 5 % of magnitude.
     """
     return tone_amplitudes(x, t, np.array([om]))[0]
-
-
-def tone_amplitudes(x: np.ndarray, t: np.ndarray, omegas: np.ndarray) -> np.ndarray:
-    """Complex amplitudes [n_tones, ...] of x ~ sum Re(c_j e^{i w_j t}) + const by least squares (x [T] or [T, p])."""
-    cols = [np.ones_like(t)]
-    for w in omegas:
-        cols += [np.cos(w * t), -np.sin(w * t)]
-    coef = np.linalg.lstsq(np.column_stack(cols), x, rcond=None)[0]
-    return coef[1::2] + 1j * coef[2::2]
 
 
 def main() -> None:

@@ -296,17 +296,12 @@ def reflect_unstable_poles(ss: DiscreteSS) -> tuple[DiscreteSS, int]:
     return DiscreteSS(A=q @ t @ q.T, B=ss.B.copy(), C=ss.C.copy(), D=ss.D.copy(), dt_star=ss.dt_star), count
 
 
-def refit_output_map(ss: DiscreteSS, u: np.ndarray, y: np.ndarray, anchor_k: np.ndarray | None = None,
-                     anchor_gaf: np.ndarray | None = None) -> DiscreteSS:
+def refit_output_map(ss: DiscreteSS, u: np.ndarray, y: np.ndarray) -> DiscreteSS:
     """Keep A, B; refit C, D by least squares so that the free-run output matches y [T, p] for inputs u [T, m].
 
     With A and B fixed the states are known, so the output map is linear: one least-squares solve with all
     outputs as right-hand sides (columns scaled to unit RMS). Used after pole reflection to move the zeros
     back into agreement with the moved poles.
-
-    ``anchor_k`` [na] and ``anchor_gaf`` [na, p, m] (reduced frequency on the semichord; the transfer matrix
-    there, e.g. direct harmonic runs of the solver): the fit is constrained to reproduce them exactly (the
-    least-squares fit to the records within the C, D that meet them; needs 2 na m < n + m).
     """
     u = np.asarray(u, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -319,41 +314,10 @@ def refit_output_map(ss: DiscreteSS, u: np.ndarray, y: np.ndarray, anchor_k: np.
     reg = np.hstack([xs, u])
     scale = np.sqrt(np.mean(reg**2, axis=0))
     scale[scale == 0] = 1.0
-    if anchor_k is None:
-        theta = np.linalg.lstsq(reg / scale, y, rcond=None)[0]
-    else:
-        e, g = _anchor_rows(ss, np.asarray(anchor_k, dtype=float), np.asarray(anchor_gaf), y.shape[1])
-        theta = constrained_lstsq(reg / scale, y, e / scale, g)
+    theta = np.linalg.lstsq(reg / scale, y, rcond=None)[0]
     theta = theta / scale[:, None]  # [n + m, p]
     return DiscreteSS(A=ss.A.copy(), B=ss.B.copy(), C=theta[: ss.n_states].T.copy(), D=theta[ss.n_states :].T.copy(),
                       dt_star=ss.dt_star)
-
-
-def _anchor_rows(ss: DiscreteSS, k: np.ndarray, gaf: np.ndarray, p: int) -> tuple[np.ndarray, np.ndarray]:
-    """Linear conditions E [2 na m, n + m] theta = G [2 na m, p] for G(k) = C (zI - A)^-1 B + D, real and imaginary
-    parts (theta = [C^T; D^T])."""
-    m = ss.n_inputs
-    if k.ndim != 1 or gaf.shape != (k.size, p, m) or not np.all(np.isfinite(gaf)):
-        raise InputError("anchor_gaf", f"expected finite [{k.size}, {p}, {m}] for anchor_k of shape {k.shape}")
-    if 2 * k.size * m >= ss.n_states + m:
-        raise InputError("anchor_k", f"{k.size} anchors fix {2 * k.size * m} conditions per output, not fewer than "
-                                     f"the {ss.n_states + m} unknowns")
-    rows, rhs = [], []
-    for kk, g in zip(k, gaf, strict=True):  # a few anchors
-        r = np.linalg.solve(np.exp(2j * kk * ss.dt_star) * np.eye(ss.n_states) - ss.A, ss.B)  # [n, m]
-        rows += [np.vstack([r.real, np.eye(m)]).T, np.vstack([r.imag, np.zeros((m, m))]).T]
-        rhs += [g.real.T, g.imag.T]
-    return np.vstack(rows), np.vstack(rhs)
-
-
-def constrained_lstsq(x: np.ndarray, y: np.ndarray, e: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """theta minimizing ||x theta - y|| subject to e theta = g (null-space method; e of full row rank)."""
-    us, sv, vt = np.linalg.svd(e)
-    rank = int(np.sum(sv > sv[0] * max(e.shape) * np.finfo(float).eps))
-    theta0 = vt[:rank].T @ ((us[:, :rank].T @ g) / sv[:rank, None])  # the minimum-norm solution of e theta = g
-    null = vt[rank:].T  # [q, q - rank]
-    z = np.linalg.lstsq(x @ null, y - x @ theta0, rcond=None)[0]
-    return theta0 + null @ z
 
 
 @overload

@@ -46,29 +46,3 @@ def test_a_rom_corrected_to_exact_columns_flutters_where_the_exact_gaf_does() ->
     err_raw, err_fixed = abs(raw["v_eas"] / ref["v_eas"] - 1.0), abs(fixed["v_eas"] / ref["v_eas"] - 1.0)
     assert err_fixed < 1e-3
     assert err_fixed < 0.5 * err_raw
-
-
-def test_two_tone_run_returns_a_linear_systems_transfer_columns() -> None:
-    """benchmarks.tsd_anchor's two-tone harmonic run on a known linear model standing in for the TSD: both tones'
-    GAF columns of the moved shape come back to 1e-6 of the model's transfer matrix (z = exp(i 2 k dt*))."""
-    from types import SimpleNamespace
-
-    from benchmarks.tsd_anchor import two_tone_column
-    from benchmarks.tsd_harmonic_check import tone_amplitudes
-
-    ss = _ss(3)
-
-    class Linear:
-        def simulate(self, mesh, shapes, sig, mach, dts):  # noqa: ANN001, ANN201
-            assert dts == ss.dt_star
-            return ss.simulate(sig)
-
-    shapes = np.array([[1.0, 0.0], [0.0, 2.0], [0.5, 0.5]])
-    ks = (0.05, 0.1)
-    for col in (0, 1):
-        h = two_tone_column(Linear(), SimpleNamespace(c_ref=1.0), shapes, 0.9, ks, col)
-        ref = ss.freqresp(np.array(ks))[:, :, col]
-        np.testing.assert_allclose(h, ref, atol=1e-6 * np.abs(ref).max())
-    t = np.linspace(0.0, 10.0, 400, endpoint=False)
-    x = np.real((1 + 2j) * np.exp(1j * 0.2 * np.pi * t)) + np.real(-0.5j * np.exp(1j * 0.4 * np.pi * t)) + 3.0
-    np.testing.assert_allclose(tone_amplitudes(x, t, np.array([0.2, 0.4]) * np.pi), [1 + 2j, -0.5j], atol=1e-12)

@@ -137,6 +137,10 @@ def test_training_errors_once_a_basis_exists(client, tmp_path):
             "options.low_k_corner", "<= 1.5")
     problem(client.post(roms, json={"mach": 0.9, "options": {"low_k_corner": 0.2, "k_max": 0.1}, **tsd}), 422,
             "options.low_k_corner", "<= 0.1")
+    for bad, why in (([0.05, 2.0], "k_max = 1.5"), ("fast", "list of reduced frequencies"), ([0.1] * 5, "1 to 4"),
+                     ([[0.05], [0.1]], "finite numbers"), ([0.1, 0.1], "distinct")):
+        problem(client.post(roms, json={"mach": 0.9, "options": {"anchor_k": bad}, **tsd}), 422,
+                "options.anchor_k", why)
     assert _counts(client) == before
 
 
