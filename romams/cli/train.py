@@ -52,6 +52,9 @@ def train_command(
                                             "multiplied by this (0.25-4; 0.5 is a quick run)"),
     linearity_check: bool = typer.Option(False, "--linearity-check", help="tsd: rerun at half amplitude and report "
                                          "the deviation from linear scaling"),
+    anchor_k: str | None = typer.Option(None, "--anchor-k", help="tsd: anchor the ROM to direct harmonic runs of "
+                                        "each shape at these reduced frequencies, e.g. 0.05,0.1 (about 3x the "
+                                        "training's cost for 8 shapes; docs/transonic.md 7.8)"),
     gaf: Path | None = typer.Option(None, "--gaf", help="import a GAF table (NPZ, CSV, or Nastran's QHH from an "
                                     "OUTPUT4 .op4 or punch .pch file, computed on the basis shapes) as the ROM of "
                                     "solver external:LABEL instead of training one"),
@@ -111,9 +114,15 @@ def train_command(
             options["grid_scale"] = grid_scale
         if linearity_check:
             options["linearity_check"] = True
-    elif grid_scale is not None or linearity_check:
+        if anchor_k is not None:
+            try:
+                options["anchor_k"] = [float(v) for v in anchor_k.split(",")]
+            except ValueError:
+                raise typer.BadParameter(f"comma-separated reduced frequencies, got {anchor_k!r}",
+                                         param_hint="--anchor-k") from None
+    elif grid_scale is not None or linearity_check or anchor_k is not None:
         raise typer.BadParameter(f"applies to the transonic solver (tsd), not {solver}",
-                                 param_hint="--grid-scale/--linearity-check")
+                                 param_hint="--grid-scale/--linearity-check/--anchor-k")
     store = open_store()
     try:
         wing_id, w = resolve_wing(store, wing)
