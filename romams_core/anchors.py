@@ -5,7 +5,7 @@ An ARX ROM of an m-shape basis fits every output to about 1 % of its RMS. A stru
 entries are mixtures of those outputs, so at the low reduced frequencies where a transonic flutter is decided
 they can be several percent off (docs/transonic.md 7.2). Anchors add what the multisine records lack.
 
-Correction (derivation in docs/transonic.md 7.8). With residuals R_j = G_direct(k_j) - G_rom(k_j) at K anchors,
+Correction (derivation in docs/transonic.md 7.7). With residuals R_j = G_direct(k_j) - G_rom(k_j) at K anchors,
 z_j = exp(2 i k_j dt*), the correction is
 
     dG(z) = E_0 + sum_l E_l (z - 1) / (z - rho_l),    rho_l = exp(-2 beta_l dt*)
@@ -98,7 +98,7 @@ def harmonic_anchors(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndar
 def anchor_lags(k: np.ndarray) -> np.ndarray:
     """The 2 K - 1 lag poles beta (reduced frequency) for K anchors: geometric from k_min to 2 k_max (K = 1: k).
 
-    Measured on the cropped-delta basis at M 0.95 (docs/transonic.md 7.8): with anchors at 0.05 / 0.1, lags
+    Measured on the cropped-delta basis at M 0.95 (docs/transonic.md 7.7): with anchors at 0.05 / 0.1, lags
     0.05 / 0.1 / 0.2 kept the validation NRMSE at 1.69 % (unanchored 1.51 %), 0.025 / 0.07 / 0.2 at 2.17 %, and
     0.1 / 0.3 / 1.0 let it grow to 37 %: poles far above the anchors need large, cancelling E_l."""
     k = np.asarray(k, dtype=float)

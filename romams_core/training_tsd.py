@@ -128,7 +128,7 @@ def train_tsd_rom(
     tones (``anchors.harmonic_anchors``, one record per shape side by side) and the ROM gets the parallel lag
     correction that reproduces them exactly (``anchors.anchored``; 3 m more states for 2 anchors). Costs about
     2.8 training runs for 8 shapes; pins the low-k GAF that decides transonic ROM-AMS flutter (docs/transonic.md
-    7.8).
+    7.7).
     """
     shapes = np.asarray(shapes, dtype=float)
     m = shapes.shape[1] if shapes.ndim == 2 else 1

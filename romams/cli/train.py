@@ -54,7 +54,7 @@ def train_command(
                                          "the deviation from linear scaling"),
     anchor_k: str | None = typer.Option(None, "--anchor-k", help="tsd: anchor the ROM to direct harmonic runs of "
                                         "each shape at these reduced frequencies, e.g. 0.05,0.1 (about 3x the "
-                                        "training's cost for 8 shapes; docs/transonic.md 7.8)"),
+                                        "training's cost for 8 shapes; docs/transonic.md 7.7)"),
     gaf: Path | None = typer.Option(None, "--gaf", help="import a GAF table (NPZ, CSV, or Nastran's QHH from an "
                                     "OUTPUT4 .op4 or punch .pch file, computed on the basis shapes) as the ROM of "
                                     "solver external:LABEL instead of training one"),
