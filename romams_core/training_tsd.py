@@ -23,7 +23,7 @@ from romams_core.anchors import anchored, check_anchor_k, harmonic_anchors
 from romams_core.arx import nrmse
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
-from romams_core.training import TrainedRom, train_rom, with_symmetry
+from romams_core.training import TrainedRom, TrainingError, train_rom, with_symmetry
 from romams_core.validation import check_number
 
 #: linearity of the GAC under halving the excitation amplitude, at most (relative L2)
@@ -178,13 +178,19 @@ def _scaled(progress: ProgressFn | None, start: float, share: float) -> Progress
 
 
 def _anchor(rom: TrainedRom, k: np.ndarray, gaf: np.ndarray) -> None:
-    """Give ``rom`` the lag correction to the anchors (k, gaf [n_k, m, m]); its validation redone from rest."""
+    """Give ``rom`` the lag correction to the anchors (k, gaf [n_k, m, m]); its validation redone from rest.
+    TrainingError when the anchored model misses the ROM's nrmse_tol (the anchors contradict the records)."""
     before = float(np.max(rom.validation_nrmse))
     fit = rom.ss.freqresp(k)
-    rom.ss = anchored(rom.ss, k, gaf)
-    rom.anchor_k, rom.anchor_gaf = k, gaf
-    rom.predicted_validation = rom.ss.simulate(rom.signals_validation)
-    rom.validation_nrmse = nrmse(rom.gac_validation, rom.predicted_validation)
+    ss = anchored(rom.ss, k, gaf)
+    pred = ss.simulate(rom.signals_validation)
+    val = nrmse(rom.gac_validation, pred)
+    bad = [int(i) for i in np.flatnonzero(~(val <= rom.nrmse_tol))]
+    if bad:
+        raise TrainingError(f"anchored at k = {k.tolist()}: validation NRMSE above nrmse_tol = {rom.nrmse_tol:g} for "
+                            + ", ".join(f"output {i}: {val[i]:.4f}" for i in bad), outputs=bad)
+    rom.ss, rom.anchor_k, rom.anchor_gaf = ss, k, gaf
+    rom.predicted_validation, rom.validation_nrmse = pred, val
     rom.spectral_radius = float(rom.ss.spectral_radius())
     change = float(np.abs(gaf - fit).max() / np.abs(gaf).max())
     rom.warnings.append(f"anchored to direct harmonic runs at k = {', '.join(f'{x:g}' for x in k)}: correction up "

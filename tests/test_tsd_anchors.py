@@ -13,7 +13,8 @@ from romams_core.aero.tsd import TsdSolver
 from romams_core.aero.tsd.grid import GridSpec
 from romams_core.errors import InputError
 from romams_core.mesh import Planform, standard_mesh
-from romams_core.training_tsd import train_tsd_rom
+from romams_core.training import TrainingError
+from romams_core.training_tsd import _anchor, train_tsd_rom
 
 PLANFORM = Planform(root_chord=0.559, tip_chord=0.368, semispan=0.762, sweep_le=math.radians(46.7),
                     n_chord=10, n_span=12)
@@ -23,7 +24,7 @@ SMALL = GridSpec(n_chord=16, n_upstream=6, n_downstream=8, n_span=6, n_outboard=
 def test_anchored_tsd_rom_reproduces_direct_harmonic_runs():
     """Two shapes at M 0.8 on a small grid, anchors at k 0.1 / 0.2: the ROM meets its stored anchors to 1e-8;
     the anchors agree with an independent single-tone run at k 0.2 within 1 %; the free-run validation stays
-    within 1 point of percent of the unanchored ROM's; the anchors survive storage."""
+    within 1 point of percent of the unanchored ROM's; the anchors survive storage; anchors 10x off are refused."""
     mesh = standard_mesh(PLANFORM)
     eta = mesh.y / PLANFORM.semispan
     shapes = np.column_stack([0.01 * eta**2, 0.01 * eta * (mesh.x - mesh.x.mean()) / PLANFORM.root_chord])
@@ -42,5 +43,7 @@ def test_anchored_tsd_rom_reproduces_direct_harmonic_runs():
     assert any("anchored" in w for w in rom.warnings) and rom.summary()["anchor_k"] == [0.1, 0.2]
     back = loads(*dumps(rom))
     np.testing.assert_array_equal(back.anchor_gaf, gaf)
+    with pytest.raises(TrainingError, match="anchored at k"):  # anchors that contradict the records
+        _anchor(plain, rom.anchor_k, 10.0 * gaf)
     with pytest.raises(InputError, match="anchor_k"):
         train_tsd_rom(mesh, shapes, 0.8, solver, anchor_k=[0.0, 0.1], **kw)
