@@ -20,7 +20,10 @@ Cases (reference data in docs/aerodynamics.md section 14):
 One TSD training per point takes minutes (``--processes`` trains Mach numbers in parallel).
 
     python -m benchmarks.validate_tsd [--cases agard,cropped,study,linear] [--plot docs] [--processes 2]
-        [--na NA --nb NB]
+        [--na NA --nb NB] [--anchor-k K ...] [--study-variants default,dt,coarse,fine]
+
+``--anchor-k`` trains every TSD ROM with the option ``anchor_k`` (direct harmonic runs of each shape at those k,
+docs/transonic.md 7.7): the study then compares grids and steps at the anchors without the ARX scatter.
 """
 
 from __future__ import annotations
@@ -199,6 +202,10 @@ def main() -> None:
     ap.add_argument("--nrmse-tol", type=float, default=None, help="TSD ARX validation tolerance (default 0.05)")
     ap.add_argument("--na", type=int, default=None, help="TSD ARX output order (default: TSD_ORDERS)")
     ap.add_argument("--nb", type=int, default=None, help="TSD ARX input order (default: TSD_ORDERS)")
+    ap.add_argument("--anchor-k", type=float, nargs="+", default=None,
+                    help="TSD training option anchor_k: anchor every TSD ROM to direct harmonic runs at these k")
+    ap.add_argument("--study-variants", default="default,dt,coarse,fine",
+                    help="study: comma list of default, dt (tsd_dt halved), coarse (grid x 0.625), fine (x 1.25)")
     ap.add_argument("--processes", type=int, default=1)
     ap.add_argument("--plot", default=None, help="directory for agard_flutter_tsd.png")
     a = ap.parse_args()
@@ -207,6 +214,8 @@ def main() -> None:
     if a.nrmse_tol is not None:
         base["nrmse_tol"] = a.nrmse_tol
     base.update({k: v for k, v in (("na", a.na), ("nb", a.nb)) if v is not None})
+    if a.anchor_k is not None:
+        base["anchor_k"] = list(a.anchor_k)
     out: dict[str, Any] = {"grid_scale": a.grid_scale}
     t0 = time.perf_counter()
     if "agard" in cases:
@@ -220,11 +229,14 @@ def main() -> None:
         out["cropped"] = parallel_map(_cropped_point, [(0.87, "tsd", base), (0.87, "dlm", {})], a.processes)
     if "study" in cases:
         m = a.study_mach
-        variants = [base, {**base, "tsd_dt": 0.01}, {**base, "grid_scale": 0.625 * a.grid_scale},
-                    {**base, "grid_scale": 1.25 * a.grid_scale}]
-        rows = parallel_map(_agard_point, [(m, "tsd", v) for v in variants], a.processes)
+        named = {"default": base, "dt": {**base, "tsd_dt": 0.01},
+                 "coarse": {**base, "grid_scale": 0.625 * a.grid_scale},
+                 "fine": {**base, "grid_scale": 1.25 * a.grid_scale}}
+        picked = ["default", *(v for v in a.study_variants.split(",") if v != "default")]
+        rows = parallel_map(_agard_point, [(m, "tsd", named[v]) for v in picked], a.processes)
         ref = rows[0].get("v_f")
-        for r in rows:
+        for name, r in zip(picked, rows, strict=True):
+            r["variant"] = name
             r["change_pct"] = None if (ref is None or r.get("v_f") is None) else 100.0 * (r["v_f"] / ref - 1.0)
         out["study"] = rows
     if "linear" in cases:
