@@ -233,6 +233,8 @@ def main() -> None:
                  "coarse": {**base, "grid_scale": 0.625 * a.grid_scale},
                  "fine": {**base, "grid_scale": 1.25 * a.grid_scale}}
         picked = ["default", *(v for v in a.study_variants.split(",") if v != "default")]
+        if unknown := sorted(set(picked) - set(named)):
+            ap.error(f"--study-variants: unknown {unknown}, choose from {sorted(named)}")
         rows = parallel_map(_agard_point, [(m, "tsd", named[v]) for v in picked], a.processes)
         ref = rows[0].get("v_f")
         for name, r in zip(picked, rows, strict=True):
