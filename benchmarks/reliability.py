@@ -24,6 +24,11 @@ Built from the service tests' own machinery (tests/service), run here with count
   (one client for half as long, after 5 warm-up evaluations that load the models), ``p99_over_single``;
   ``api_rss_growth_pct``/``worker_rss_growth_pct``: RSS growth of the API process and
   of the worker processes (all together) from after the one-client phase to after the load.
+  The load phase is a closed loop (every client sends its next request as soon as it has an answer), so its
+  latency is the queue in front of the evaluation workers: 50 clients / the throughput. A second, paced phase
+  of the same clients and length adds exponential think times so that the offered load is ``PACED_LOAD`` (half)
+  of the closed loop's throughput (``load_throughput_per_s``): ``paced_p50_s``/``paced_p99_s``/
+  ``paced_p99_over_single`` show the latency of 50 concurrent clients when the workers are not saturated.
 ``--quick``: short phases (8 clients x 10 s of load, 3 cases per operation and mode, a 5 s PostgreSQL outage);
 without: 50 clients x 60 s, 20 cases, 15 s. Progress goes to stderr.
 """
@@ -53,6 +58,7 @@ KEY = "reliability-benchmark-key-0123456789"
 DESIGN = [0.3, 0.4, 0.7, 0.05, 1.0, 1.0, 0.8]
 RFA_FAST = {"k_values": [0.0, 0.1, 0.3, 0.6], "n_lags": 1}
 WARM_UP = 5  # evaluations before any latency is measured
+PACED_LOAD = 0.5  # offered load of the paced phase, as a fraction of the closed-loop phase's throughput
 BAD_INPUT_TESTS = ("test_bad_input.py", "test_reliability.py", "test_security.py")
 
 
@@ -242,8 +248,10 @@ def upload_bomb(client: Any, pid: int) -> dict[str, Any]:
             "upload_bomb_bytes": len(data)}
 
 
-def load(url: str, wid: int, clients: int, seconds: float, designs: list[list[float]]) -> dict[str, Any]:
-    """``clients`` threads posting synchronous evaluations for ``seconds``: latencies (s) and errors."""
+def load(url: str, wid: int, clients: int, seconds: float, designs: list[list[float]],
+         think_s: float = 0.0) -> dict[str, Any]:
+    """``clients`` threads posting synchronous evaluations for ``seconds``: latencies (s) and errors. With
+    ``think_s`` each client pauses an exponentially distributed time of that mean (s) after every answer."""
     import httpx
 
     latencies: list[float] = []
@@ -251,9 +259,14 @@ def load(url: str, wid: int, clients: int, seconds: float, designs: list[list[fl
     end = time.monotonic() + seconds
 
     def one_client(i: int) -> None:
+        rng = np.random.default_rng(i)
         with httpx.Client(base_url=url, headers={"Authorization": f"Bearer {KEY}"}, timeout=120) as c:
             k = i
             while time.monotonic() < end:
+                if think_s > 0:
+                    time.sleep(min(rng.exponential(think_s), max(0.0, end - time.monotonic())))
+                    if time.monotonic() >= end:
+                        break
                 t = time.perf_counter()
                 try:
                     r = c.post(f"/api/v1/wings/{wid}/flutter",
@@ -302,12 +315,21 @@ def embedded(plan: Plan, tmp: Path) -> dict[str, Any]:
         log(f"embedded: one client p50 {warm['p50_s']:.3f} s; load {plan.load_clients} clients x "
             f"{plan.load_seconds:.0f} s (API {api0:.0f} MiB, workers {workers0:.0f} MiB)")
         res = load(svc.url, wid, plan.load_clients, plan.load_seconds, designs)
+        capacity = res["requests"] / plan.load_seconds
+        think = plan.load_clients / (PACED_LOAD * capacity)  # offered rate = PACED_LOAD x the closed loop's
+        log(f"embedded: closed loop p99 {res['p99_s']:.3f} s, {capacity:.1f}/s; paced phase, think {think:.2f} s")
+        paced = load(svc.url, wid, plan.load_clients, plan.load_seconds, designs[1::2], think_s=think)
         api1, workers1 = rss_mb([svc.proc.pid]), rss_mb(svc.worker_pids())
     out.update({"load_clients": plan.load_clients, "load_seconds": plan.load_seconds,
                 "load_requests": res["requests"], "load_errors": res["errors"], "load_error_kinds": res["error_kinds"],
                 "p50_s": round(res["p50_s"], 4), "p99_s": round(res["p99_s"], 4),
                 "single_client_p50_s": round(warm["p50_s"], 4),
                 "p99_over_single": round(res["p99_s"] / warm["p50_s"], 2),
+                "load_throughput_per_s": round(capacity, 2),
+                "paced_offered_fraction": PACED_LOAD, "paced_think_s": round(think, 3),
+                "paced_requests": paced["requests"], "paced_errors": paced["errors"],
+                "paced_p50_s": round(paced["p50_s"], 4), "paced_p99_s": round(paced["p99_s"], 4),
+                "paced_p99_over_single": round(paced["p99_s"] / warm["p50_s"], 2),
                 "api_rss_mb": [round(api0, 1), round(api1, 1)],
                 "worker_rss_mb": [round(workers0, 1), round(workers1, 1)],
                 "api_rss_growth_pct": round(100 * (api1 - api0) / api0, 1),

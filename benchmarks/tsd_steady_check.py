@@ -7,7 +7,10 @@ the box size (first order), so the zero-box value is 4 D_4 - 3 D_3 (Richardson),
 order. The columns are marched side by side (``simulate_records``).
 
     python -m benchmarks.tsd_steady_check [--wing agard-445.6] [--mach 0.7] [--columns 0 1 2 3]
-        [--hold 40] [--n-chord N] [--n-span N] [--dlm-refine 2 3 4]
+        [--hold 40] [--n-chord N] [--n-span N] [--grid KEY=VALUE ...] [--dlm-refine 2 3 4]
+
+``--grid`` sets any other field of the TSD grid (``romams_core.aero.tsd.grid.GridSpec``), e.g.
+``--grid n_z=33 dz0=0.0133`` (normal direction) or ``--grid z_max=16 n_z=26`` (far field).
 """
 
 from __future__ import annotations
@@ -50,6 +53,21 @@ def dlm_sequence(mesh, shapes: np.ndarray, mach: float, refines: list[int]) -> d
             for r in refines}
 
 
+def grid_overrides(ap: argparse.ArgumentParser, grid: object, items: list[str]) -> dict[str, float | int]:
+    """``KEY=VALUE`` items as GridSpec field values, typed like the field (usage error on an unknown key)."""
+    out: dict[str, float | int] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not hasattr(grid, key):
+            ap.error(f"--grid {item!r}: expected KEY=VALUE with KEY a GridSpec field")
+        kind = type(getattr(grid, key))
+        try:
+            out[key] = kind(value)
+        except ValueError:
+            ap.error(f"--grid {item!r}: {key} needs a {kind.__name__}")
+    return out
+
+
 def main() -> None:
     """Run the steady columns and print the ratios to the DLM on each lattice and extrapolated."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -59,6 +77,7 @@ def main() -> None:
     ap.add_argument("--hold", type=float, default=40.0, help="hold after the ramp (t*)")
     ap.add_argument("--n-chord", type=int, default=None)
     ap.add_argument("--n-span", type=int, default=None)
+    ap.add_argument("--grid", nargs="+", default=[], metavar="KEY=VALUE", help="other GridSpec fields")
     ap.add_argument("--dlm-refine", type=int, nargs="+", default=[2, 3, 4])
     a = ap.parse_args()
     wing = template(a.wing)
@@ -66,6 +85,7 @@ def main() -> None:
     shapes = modal_analysis(wing, None, 4, mesh).shapes
     solver = make_tsd_solver()  # flat: the linear limit
     mods = {k: v for k, v in (("n_chord", a.n_chord), ("n_span", a.n_span)) if v is not None}
+    mods.update(grid_overrides(ap, solver.grid, a.grid))
     solver.grid = replace(solver.grid, **mods)
     tsd, drift = steady_columns(solver, mesh, shapes, a.mach, a.columns, a.hold)
     dlm = dlm_sequence(mesh, shapes, a.mach, a.dlm_refine)
