@@ -23,7 +23,8 @@ Built from the service tests' own machinery (tests/service), run here with count
   ``load_seconds``: ``load_errors`` (anything but 200), ``p50_s``/``p99_s`` latency, ``single_client_p50_s``
   (one client for half as long, after 5 warm-up evaluations that load the models), ``p99_over_single``;
   ``api_rss_growth_pct``/``worker_rss_growth_pct``: RSS growth of the API process and
-  of the worker processes (all together) from after the one-client phase to after the load.
+  of the worker processes (all together) from after the one-client phase to after the load
+  (``api_rss_mb``/``worker_rss_mb``: MiB after the one-client phase, after the closed loop, after the paced phase).
   The load phase is a closed loop (every client sends its next request as soon as it has an answer), so its
   latency is the queue in front of the evaluation workers: 50 clients / the throughput. A second, paced phase
   of the same clients and length adds exponential think times so that the offered load is ``PACED_LOAD`` (half)
@@ -315,6 +316,7 @@ def embedded(plan: Plan, tmp: Path) -> dict[str, Any]:
         log(f"embedded: one client p50 {warm['p50_s']:.3f} s; load {plan.load_clients} clients x "
             f"{plan.load_seconds:.0f} s (API {api0:.0f} MiB, workers {workers0:.0f} MiB)")
         res = load(svc.url, wid, plan.load_clients, plan.load_seconds, designs)
+        api_mid, workers_mid = rss_mb([svc.proc.pid]), rss_mb(svc.worker_pids())
         capacity = res["requests"] / plan.load_seconds
         think = plan.load_clients / (PACED_LOAD * capacity)  # offered rate = PACED_LOAD x the closed loop's
         log(f"embedded: closed loop p99 {res['p99_s']:.3f} s, {capacity:.1f}/s; paced phase, think {think:.2f} s")
@@ -330,8 +332,8 @@ def embedded(plan: Plan, tmp: Path) -> dict[str, Any]:
                 "paced_requests": paced["requests"], "paced_errors": paced["errors"],
                 "paced_p50_s": round(paced["p50_s"], 4), "paced_p99_s": round(paced["p99_s"], 4),
                 "paced_p99_over_single": round(paced["p99_s"] / warm["p50_s"], 2),
-                "api_rss_mb": [round(api0, 1), round(api1, 1)],
-                "worker_rss_mb": [round(workers0, 1), round(workers1, 1)],
+                "api_rss_mb": [round(api0, 1), round(api_mid, 1), round(api1, 1)],
+                "worker_rss_mb": [round(workers0, 1), round(workers_mid, 1), round(workers1, 1)],
                 "api_rss_growth_pct": round(100 * (api1 - api0) / api0, 1),
                 "worker_rss_growth_pct": round(100 * (workers1 - workers0) / workers0, 1)})
     return out
