@@ -317,7 +317,7 @@ def embedded(plan: Plan, tmp: Path) -> dict[str, Any]:
             f"{plan.load_seconds:.0f} s (API {api0:.0f} MiB, workers {workers0:.0f} MiB)")
         res = load(svc.url, wid, plan.load_clients, plan.load_seconds, designs)
         api_mid, workers_mid = rss_mb([svc.proc.pid]), rss_mb(svc.worker_pids())
-        capacity = res["requests"] / plan.load_seconds
+        capacity = max(res["requests"], 1) / plan.load_seconds  # > 0: the paced phase divides by it
         think = plan.load_clients / (PACED_LOAD * capacity)  # offered rate = PACED_LOAD x the closed loop's
         log(f"embedded: closed loop p99 {res['p99_s']:.3f} s, {capacity:.1f}/s; paced phase, think {think:.2f} s")
         paced = load(svc.url, wid, plan.load_clients, plan.load_seconds, designs[1::2], think_s=think)

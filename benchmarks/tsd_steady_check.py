@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from romams_core.aero.dlm import DlmSolver
+from romams_core.errors import InputError
 from romams_core.mesh import standard_mesh
 from romams_core.structure.modal import modal_analysis
 from romams_core.training_tsd import make_tsd_solver
@@ -86,7 +87,10 @@ def main() -> None:
     solver = make_tsd_solver()  # flat: the linear limit
     mods = {k: v for k, v in (("n_chord", a.n_chord), ("n_span", a.n_span)) if v is not None}
     mods.update(grid_overrides(ap, solver.grid, a.grid))
-    solver.grid = replace(solver.grid, **mods)
+    try:
+        solver.grid = replace(solver.grid, **mods)
+    except InputError as exc:  # e.g. dz0 * n_z beyond z_max
+        ap.error(str(exc))
     tsd, drift = steady_columns(solver, mesh, shapes, a.mach, a.columns, a.hold)
     dlm = dlm_sequence(mesh, shapes, a.mach, a.dlm_refine)
     r_hi, r_lo = sorted(a.dlm_refine)[-1], sorted(a.dlm_refine)[-2]
