@@ -48,14 +48,12 @@ def basis_job(job_id: str) -> None:
             store_and_finish(s, job_id, save_own)  # stored, activated and succeeded together, unless cancelled
             return
         designs = sample_designs(wing, int(p["samples"]), seed=int(p["seed"]))
+        chunks = [{"index": idx, "designs": designs[r.start:r.stop].tolist(), "modes": int(p["modes"])}
+                  for idx, r in enumerate(_chunks(len(designs), settings.basis_chunk))]
         with s.unit_of_work() as uow:  # the chunk rows are committed together, before any message is sent
-            children = uow.jobs.children(job_id)
-            if not children:
-                for idx, r in enumerate(_chunks(len(designs), settings.basis_chunk)):
-                    uow.jobs.create("basis-chunk", {"index": idx, "designs": designs[r.start:r.stop].tolist(),
-                                                    "modes": int(p["modes"])},
-                                    wing_id=job["wing_id"], parent_id=job_id)
-                children = uow.jobs.children(job_id)
+            children = uow.jobs.fan_out(job_id, "basis-chunk", chunks, wing_id=job["wing_id"])
+        if children is None:  # cancelled meanwhile
+            return
         s.jobs.claim_stage(job_id, None, "fanout")
         progress(0.02, f"{len(designs)} samples in {len(children)} chunks of modal analyses")
         for c in children:

@@ -10,7 +10,7 @@ import datetime as dt
 import os
 import socket
 import uuid
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from sqlalchemy import func, select, update
@@ -87,6 +87,18 @@ class JobRepository(Repository):
         rows = self._session.scalars(select(Job).where(Job.parent_id == parent_id).order_by(Job.created_at, Job.id)
                                      .execution_options(populate_existing=True))
         return [job_dict(j) for j in rows]
+
+    def fan_out(self, parent_id: str, kind: str, params: Sequence[Mapping[str, Any]], *,
+                wing_id: int | None = None) -> list[dict[str, Any]] | None:
+        """Children of a running fan-out job, created once (a re-delivery finds the first ones); None if the
+        parent is no longer running. The guarded write on the parent comes first, so a concurrent cancel either
+        lands before (no child is created) or waits for this unit of work and then finds the children."""
+        if not self.heartbeat(parent_id):
+            return None
+        if not self.children(parent_id):
+            for p in params:
+                self.create(kind, p, wing_id=wing_id, parent_id=parent_id)
+        return self.children(parent_id)
 
     def recent(self, limit: int = 50, status: JobStatus | str | None = None, kind: str | None = None,
                parent_id: str | None = None, top_level: bool = False, *, wing_id: int | None = None,

@@ -243,6 +243,44 @@ def test_job_transitions_are_guarded(store):
         store.artifacts.load(art, "other")
 
 
+def test_a_cancel_racing_the_fan_out_never_leaves_a_child_queued(store):
+    """A cancel that arrives while the worker's unit of work creates the chunks waits for it and cancels them; one
+    that arrives first leaves nothing to create (the race a fan-out job had with its cancel)."""
+    import threading
+    import time
+
+    params = [{"index": i} for i in range(3)]
+    parent = store.jobs.create("basis", {})
+    assert store.jobs.start(parent, max_deliveries=3) == (True, 1)
+    outcome: list[bool] = []
+    with store.unit_of_work() as uow:
+        kids = uow.jobs.fan_out(parent, "basis-chunk", params, wing_id=None)
+        assert kids is not None and [k["params"]["index"] for k in kids] == [0, 1, 2]
+        canceller = threading.Thread(target=lambda: outcome.append(store.jobs.cancel(parent)))
+        canceller.start()
+        time.sleep(0.3)
+        assert canceller.is_alive()  # the parent's row is held until the chunks are committed
+    canceller.join(30)
+    assert outcome == [True]
+    assert {k["status"] for k in store.jobs.children(parent)} == {"cancelled"}
+    with store.unit_of_work() as uow:  # a re-delivery of the cancelled parent creates nothing
+        assert uow.jobs.fan_out(parent, "basis-chunk", params) is None
+
+    late = store.jobs.create("basis", {})
+    assert store.jobs.start(late, max_deliveries=3) == (True, 1)
+    assert store.jobs.cancel(late)
+    with store.unit_of_work() as uow:
+        assert uow.jobs.fan_out(late, "basis-chunk", params) is None
+    assert store.jobs.children(late) == []
+
+    again = store.jobs.create("basis", {})
+    store.jobs.start(again, max_deliveries=3)
+    with store.unit_of_work() as uow:
+        first = [k["id"] for k in uow.jobs.fan_out(again, "basis-chunk", params) or []]
+    with store.unit_of_work() as uow:  # a re-delivered running parent finds its first chunks
+        assert [k["id"] for k in uow.jobs.fan_out(again, "basis-chunk", params) or []] == first and len(first) == 3
+
+
 def test_worker_lru_cache_is_bounded():
     from worker.cache import LruCache
 
