@@ -21,9 +21,10 @@ RUN pip install . ./client 'flower>=2.0' && (pip install --no-deps 'pyNastran==1
 
 RUN useradd --create-home --uid 1000 romams && mkdir -p /data && chown romams /data
 USER romams
-# the flutter tracker's numba kernels compiled once into the image (site-packages is read-only to this user)
+# the numba kernels (flutter tracker, DLM) compiled once into the image (site-packages is read-only to this user)
 ENV NUMBA_CACHE_DIR=/home/romams/numba-cache
 RUN python -c "from romams_core.flutter.assignment import warm_up; warm_up()"
+RUN python -c "from romams_core.aero.dlm_kernel import warm_up; warm_up()"
 VOLUME ["/data"]
 EXPOSE 8000
 CMD ["uvicorn", "api.app:app", "--host", "0.0.0.0", "--port", "8000"]

@@ -6,9 +6,10 @@ Model (derivation and verification in docs/aerodynamics.md, section 10):
 - the root y = 0 is a plane of symmetry: the lattice is mirrored explicitly (left boxes also left to right,
   normal +z) and the symmetric AIC of the half wing is D_sym = D_RR + D_RL, the receiving rows of the full
   lattice's AIC summed over each box and its image (panelaero's own ``xz_symmetry`` is not used, see the tests);
-- AIC D(k) = D_VLM + dD_DLM(k) (panelaero: steady horseshoe VLM with the Prandtl-Glauert stretch, plus the
-  Rodden parabolic DLM increment); D maps the pressure coefficient cp (positive up) of every box to the normal
-  velocity / V it induces at every collocation point;
+- AIC D(k) = D_VLM + dD_DLM(k) (panelaero's steady horseshoe VLM with the Prandtl-Glauert stretch, plus the
+  Rodden parabolic DLM increment: compiled for the planar lattice in :mod:`.dlm_kernel`, equal to panelaero's
+  ``calc_Ajj`` to round-off, tests/test_dlm.py); D maps the pressure coefficient cp (positive up) of every box
+  to the normal velocity / V it induces at every collocation point;
 - boundary condition D cp = w / V with w / V = dh/dx + i k h / b (h the +z displacement of the surface,
   e^{i omega t} convention, k = omega b / V on b = c_ref / 2); h and dh/dx from the standard mesh's bilinear
   interpolant of the nodal shape values (as the UVLM);
@@ -32,6 +33,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from romams_core.aero.dlm_kernel import planar_dlm_increment
 from romams_core.aero.protocol import (
     ProgressFn,
     SolverInfo,
@@ -131,7 +133,8 @@ def mirror_aerogrid(grid: dict[str, Any]) -> dict[str, Any]:
 def aic_rows(receivers: np.ndarray, boxes: dict[str, Any], mach: float, k_panelaero: float | None) -> np.ndarray:
     """AIC rows [R, S]: normal velocity / V at receivers [R, 3] per unit cp of each sending box (grid units).
 
-    ``k_panelaero`` None gives panelaero's steady VLM part, a number omega / V (per grid unit) its DLM increment.
+    ``k_panelaero`` None gives panelaero's steady VLM part, a number omega / V (per grid unit) its DLM increment
+    (the reference of the compiled planar kernel the solver uses, :func:`.dlm_kernel.planar_dlm_increment`).
     panelaero evaluates square [n, n] arrays, so the matrix is built in square tiles (the last ones padded by
     repetition; every entry depends only on its receiver and its box, and the lattice is planar).
     """
@@ -200,7 +203,8 @@ class DlmSystem:
         """AIC D(k) [K, K] (normal velocity / V per unit cp) at reduced frequency k on b_ref, of the symmetry."""
         if k == 0.0:
             return self.steady.astype(complex)
-        unsteady = aic_rows(self.grid["offset_j"], self.full, self.mach, float(k) * self.grid["unit"] / self.b_ref)
+        k_grid = float(k) * self.grid["unit"] / self.b_ref  # omega / V per grid unit
+        unsteady = planar_dlm_increment(self.grid["offset_j"], self.full, self.mach, k_grid)
         return self.steady + self.symmetric(unsteady)
 
     def wash(self, shapes: np.ndarray, k: float) -> np.ndarray:
