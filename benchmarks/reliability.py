@@ -30,6 +30,9 @@ Built from the service tests' own machinery (tests/service), run here with count
   of the same clients and length adds exponential think times so that the offered load is ``PACED_LOAD`` (half)
   of the closed loop's throughput (``load_throughput_per_s``): ``paced_p50_s``/``paced_p99_s``/
   ``paced_p99_over_single`` show the latency of 50 concurrent clients when the workers are not saturated.
+- distributed: the same load phases on a PostgreSQL and a Redis that this run starts on ports of its own (the API
+  and its child workers, ``romams serve``, use them): the same keys with ``distributed_`` in front
+  (``distributed_api_rss_growth_pct``, ``distributed_worker_rss_growth_pct``, ``distributed_p99_s``, ...).
 ``--quick``: short phases (8 clients x 10 s of load, 3 cases per operation and mode, a 5 s PostgreSQL outage);
 without: 50 clients x 60 s, 20 cases, 15 s. Progress goes to stderr.
 """
@@ -289,56 +292,90 @@ def load(url: str, wid: int, clients: int, seconds: float, designs: list[list[fl
             "p99_s": float(np.percentile(lat, 99))}
 
 
+def load_phases(svc: Any, c: Any, store: Any, plan: Plan, label: str) -> dict[str, Any]:
+    """On a live service ``svc`` (client ``c``, its ``store``): a ROM, then one client, the closed loop and the
+    paced phase of ``plan``, with the RSS of the API and the worker processes after each (the JSON keys)."""
+    from romams_core.basis import random_designs
+    from romams_core.wing import template
+
+    tf, wait_job = service_tests("test_faults"), service_tests("conftest").wait_job
+    wid = c.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
+    tf.seed_basis(store, wid)
+    job = c.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.5, "options": RFA_FAST}).json()
+    log(f"{label}: training {wait_job(c, job['job_id'], 600)['status']}")
+    designs = random_designs(template("cropped-delta"), 5000, seed=7).tolist()
+    # disjoint designs per phase: a design seen before is answered from a worker's result cache
+    single, closed, paced_designs = designs[:1000], designs[1000:3000], designs[3000:-WARM_UP]
+    for d in designs[-WARM_UP:]:  # the first requests load the basis and ROM into the workers' caches
+        c.post(f"/api/v1/wings/{wid}/flutter", json={"design": d, "machs": [0.5], "store": False})
+    warm = load(svc.url, wid, 1, max(5.0, plan.load_seconds / 2), single)
+    api0, workers0 = rss_mb([svc.proc.pid]), rss_mb(svc.worker_pids())
+    log(f"{label}: one client p50 {warm['p50_s']:.3f} s; load {plan.load_clients} clients x "
+        f"{plan.load_seconds:.0f} s (API {api0:.0f} MiB, workers {workers0:.0f} MiB)")
+    res = load(svc.url, wid, plan.load_clients, plan.load_seconds, closed)
+    api_mid, workers_mid = rss_mb([svc.proc.pid]), rss_mb(svc.worker_pids())
+    capacity = max(res["requests"], 1) / plan.load_seconds  # > 0: the paced phase divides by it
+    think = plan.load_clients / (PACED_LOAD * capacity)  # offered rate = PACED_LOAD x the closed loop's
+    log(f"{label}: closed loop p99 {res['p99_s']:.3f} s, {capacity:.1f}/s; paced phase, think {think:.2f} s")
+    paced = load(svc.url, wid, plan.load_clients, plan.load_seconds, paced_designs, think_s=think)
+    api1, workers1 = rss_mb([svc.proc.pid]), rss_mb(svc.worker_pids())
+    log(f"{label}: paced p99 {paced['p99_s']:.3f} s; API {api1:.0f} MiB, workers {workers1:.0f} MiB")
+    return {"load_clients": plan.load_clients, "load_seconds": plan.load_seconds,
+            "load_requests": res["requests"], "load_errors": res["errors"], "load_error_kinds": res["error_kinds"],
+            "p50_s": round(res["p50_s"], 4), "p99_s": round(res["p99_s"], 4),
+            "single_client_p50_s": round(warm["p50_s"], 4),
+            "p99_over_single": round(res["p99_s"] / warm["p50_s"], 2),
+            "load_throughput_per_s": round(capacity, 2),
+            "paced_offered_fraction": PACED_LOAD, "paced_think_s": round(think, 3),
+            "paced_requests": paced["requests"], "paced_errors": paced["errors"],
+            "paced_p50_s": round(paced["p50_s"], 4), "paced_p99_s": round(paced["p99_s"], 4),
+            "paced_p99_over_single": round(paced["p99_s"] / warm["p50_s"], 2),
+            "api_rss_mb": [round(api0, 1), round(api_mid, 1), round(api1, 1)],
+            "worker_rss_mb": [round(workers0, 1), round(workers_mid, 1), round(workers1, 1)],
+            "api_rss_growth_pct": round(100 * (api1 - api0) / api0, 1),
+            "worker_rss_growth_pct": round(100 * (workers1 - workers0) / workers0, 1)}
+
+
 def embedded(plan: Plan, tmp: Path) -> dict[str, Any]:
-    """``romams serve`` with a key: the upload bomb, then the load phase with RSS before and after."""
+    """``romams serve`` with a key (SQLite, server-less broker): the upload bomb, then the load phases."""
     import httpx
 
     from benchmarks.live_service import LiveService
     from romams.persistence import open_store
     from romams.settings import Settings
-    from romams_core.basis import random_designs
-    from romams_core.wing import template
-
-    tf, wait_job = service_tests("test_faults"), service_tests("conftest").wait_job
 
     with LiveService(tmp, concurrency=2, api_keys=KEY) as svc, httpx.Client(
             base_url=svc.url, headers={"Authorization": f"Bearer {KEY}"}, timeout=300) as c:
         out = upload_bomb(c, svc.proc.pid)
-        wid = c.post("/api/v1/wings", json={"template": "cropped-delta"}).json()["id"]
-        tf.seed_basis(open_store(Settings(data_dir=tmp)), wid)
-        job = c.post(f"/api/v1/wings/{wid}/roms", json={"mach": 0.5, "options": RFA_FAST}).json()
-        log(f"embedded: training {wait_job(c, job['job_id'], 600)['status']}")
-        designs = random_designs(template("cropped-delta"), 5000, seed=7).tolist()
-        # disjoint designs per phase: a design seen before is answered from a worker's result cache
-        single, closed, paced_designs = designs[:1000], designs[1000:3000], designs[3000:-WARM_UP]
-        for d in designs[-WARM_UP:]:  # the first requests load the basis and ROM into the workers' caches
-            c.post(f"/api/v1/wings/{wid}/flutter", json={"design": d, "machs": [0.5], "store": False})
-        warm = load(svc.url, wid, 1, max(5.0, plan.load_seconds / 2), single)
-        api0, workers0 = rss_mb([svc.proc.pid]), rss_mb(svc.worker_pids())
-        log(f"embedded: one client p50 {warm['p50_s']:.3f} s; load {plan.load_clients} clients x "
-            f"{plan.load_seconds:.0f} s (API {api0:.0f} MiB, workers {workers0:.0f} MiB)")
-        res = load(svc.url, wid, plan.load_clients, plan.load_seconds, closed)
-        api_mid, workers_mid = rss_mb([svc.proc.pid]), rss_mb(svc.worker_pids())
-        capacity = max(res["requests"], 1) / plan.load_seconds  # > 0: the paced phase divides by it
-        think = plan.load_clients / (PACED_LOAD * capacity)  # offered rate = PACED_LOAD x the closed loop's
-        log(f"embedded: closed loop p99 {res['p99_s']:.3f} s, {capacity:.1f}/s; paced phase, think {think:.2f} s")
-        paced = load(svc.url, wid, plan.load_clients, plan.load_seconds, paced_designs, think_s=think)
-        api1, workers1 = rss_mb([svc.proc.pid]), rss_mb(svc.worker_pids())
-    out.update({"load_clients": plan.load_clients, "load_seconds": plan.load_seconds,
-                "load_requests": res["requests"], "load_errors": res["errors"], "load_error_kinds": res["error_kinds"],
-                "p50_s": round(res["p50_s"], 4), "p99_s": round(res["p99_s"], 4),
-                "single_client_p50_s": round(warm["p50_s"], 4),
-                "p99_over_single": round(res["p99_s"] / warm["p50_s"], 2),
-                "load_throughput_per_s": round(capacity, 2),
-                "paced_offered_fraction": PACED_LOAD, "paced_think_s": round(think, 3),
-                "paced_requests": paced["requests"], "paced_errors": paced["errors"],
-                "paced_p50_s": round(paced["p50_s"], 4), "paced_p99_s": round(paced["p99_s"], 4),
-                "paced_p99_over_single": round(paced["p99_s"] / warm["p50_s"], 2),
-                "api_rss_mb": [round(api0, 1), round(api_mid, 1), round(api1, 1)],
-                "worker_rss_mb": [round(workers0, 1), round(workers_mid, 1), round(workers1, 1)],
-                "api_rss_growth_pct": round(100 * (api1 - api0) / api0, 1),
-                "worker_rss_growth_pct": round(100 * (workers1 - workers0) / workers0, 1)})
+        out.update(load_phases(svc, c, open_store(Settings(data_dir=tmp)), plan, "embedded"))
     return out
+
+
+def distributed(plan: Plan, tmp: Path) -> dict[str, Any]:
+    """The same load phases on PostgreSQL and Redis (servers this run starts on ports of its own; the API and
+    its workers are the processes of ``romams serve`` on them): the keys of :func:`load_phases` with
+    ``distributed_`` in front."""
+    import httpx
+
+    from benchmarks.live_service import LiveService
+    from romams.persistence import dispose_engines, open_store
+    from romams.settings import Settings
+
+    servers = service_tests("servers")
+    tmp.mkdir(parents=True, exist_ok=True)
+    postgres = servers.PostgresServer().start()
+    redis = servers.RedisServer(tmp).start()
+    try:
+        urls = {"database_url": postgres.create_database(), "broker_url": redis.url}
+        store = open_store(Settings(data_dir=tmp / "data", **urls), migrate=True)
+        with LiveService(tmp / "data", concurrency=2, api_keys=KEY, **urls) as svc, httpx.Client(
+                base_url=svc.url, headers={"Authorization": f"Bearer {KEY}"}, timeout=300) as c:
+            out = load_phases(svc, c, store, plan, "distributed")
+    finally:
+        dispose_engines()
+        redis.stop()
+        postgres.remove()
+    return {f"distributed_{k}": v for k, v in out.items()}
 
 
 def main() -> None:
@@ -365,6 +402,12 @@ def main() -> None:
                 raise
             out.update({"jobs_lost": None, "jobs_stuck": None, **_skipped("faults", exc)})
         out.update(embedded(plan, Path(tmp) / "embedded"))
+        try:
+            out.update(distributed(plan, Path(tmp) / "distributed"))
+        except BaseException as exc:  # noqa: BLE001 - as for the faults phase
+            if isinstance(exc, KeyboardInterrupt):
+                raise
+            out.update(_skipped("distributed", exc))
     out["wall_s"] = round(time.monotonic() - t0, 1)
     print(json.dumps(out) if args.json else json.dumps(out, indent=2))
 
