@@ -112,7 +112,7 @@ def faults(plan: Plan, tmp: Path) -> dict[str, Any]:
             tf.seed_basis(d.store, d.wing_id)
             first = wait_job(d.client, tf.training_running(d, 0.5), 300)
             log(f"faults: first training {first['status']}")
-            tf.training_running(d, 0.6)
+            tf.training_running(d, 0.6, tf.RFA_LONG)  # still running when Redis goes down
             for seed in (1, 2, 3):
                 tf.submit_basis(d, seed)
             d.redis.stop()

@@ -5,8 +5,12 @@ accuracy of the doublet lattice itself (those tests train with the product's def
 #: (``romams_core.training_rfa.train_rfa_rom``, ``lattice_refine``)
 DLM_FAST = {"lattice_refine": 1}
 #: the smallest useful RFA ROM on the default lattice: four reduced frequencies, one lag (a smoke ROM for plumbing;
-#: test_faults.py needs its training to run for a few seconds)
+#: about 1 s of training with the compiled DLM kernel)
 RFA_FAST = {"k_values": [0.0, 0.1, 0.3, 0.6], "n_lags": 1}
+#: a training that lasts (about 9 s on an idle 2-core machine: 12 reduced frequencies on the 3x3 lattice), for the
+#: fault tests whose training must still run while a server is down
+RFA_LONG = {"k_values": [0.0, 0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0], "n_lags": 1,
+            "lattice_refine": 3}
 
 
 def baseline_dlm_rom(mach: float):

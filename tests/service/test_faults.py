@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fast_settings import RFA_FAST
+from fast_settings import RFA_FAST, RFA_LONG
 from fastapi.testclient import TestClient
 
 from api.app import create_app
@@ -135,9 +135,9 @@ def submit_basis(d: Deployment, seed: int) -> str:
     return r.json()["job_id"]
 
 
-def training_running(d: Deployment, mach: float) -> str:
-    """Submit a DLM training and wait until the worker runs it; its job id."""
-    r = d.client.post(f"/api/v1/wings/{d.wing_id}/roms", json={"mach": mach, "options": RFA_FAST})
+def training_running(d: Deployment, mach: float, options: dict | None = None) -> str:
+    """Submit a DLM training (``options``, default RFA_FAST) and wait until the worker runs it; its job id."""
+    r = d.client.post(f"/api/v1/wings/{d.wing_id}/roms", json={"mach": mach, "options": options or RFA_FAST})
     assert r.status_code == 202, r.text
     job = wait_job(d.client, r.json()["job_id"], 120, until=("running", "succeeded", "failed", "cancelled"))
     assert job["status"] == "running", (job, d.logs())
@@ -153,7 +153,7 @@ def test_redis_restart_without_persistence_loses_no_job(deployment):
     seed_basis(d.store, d.wing_id)
     first = wait_job(d.client, training_running(d, 0.5), 240)
     assert first["status"] == "succeeded", (first, d.logs())
-    training = training_running(d, 0.6)
+    training = training_running(d, 0.6, RFA_LONG)  # still running when the server goes down
     queued = [submit_basis(d, seed) for seed in (1, 2, 3)]
     assert d.store.jobs.status(training) == "running" and d.store.jobs.status(queued[-1]) == "queued"
     d.redis.stop()
@@ -228,7 +228,7 @@ def test_postgresql_restart_gives_only_503s_and_leaves_no_job_stuck(deployment):
     seed_basis(d.store, d.wing_id)
     first = wait_job(d.client, training_running(d, 0.5), 240)  # the ROM the evaluations use
     assert first["status"] == "succeeded", (first, d.logs())
-    training = training_running(d, 0.6)
+    training = training_running(d, 0.6, RFA_LONG)  # still running when the server goes down
     for seed in (1, 2):
         submit_basis(d, seed)
     with Load(d) as load:
