@@ -129,3 +129,29 @@ def test_rom_ams_reproduces_direct_solver_for_real_modes(cropped_delta):
         direct = solver.simulate(mesh, modal.shapes, xi, 0.87, rom.dt_star)
         ams = to_modal(rom.ss, fit.gamma).simulate(xi)
         assert np.all(nrmse(direct, ams) < 0.02)
+
+
+def test_an_unreduced_arx_rom_keeps_its_minimal_balanced_realization():
+    """An ARX ROM whose reduction was not accepted keeps the minimal balanced realization of its ARX model: the
+    shift-register states (defective poles at z = 0) go, the transfer matrix and the validation error stay, and the
+    eigenvectors become well conditioned (the flutter search's fast path; docs/transonic.md 7.9)."""
+    from romams_core.arx import ArxModel
+    from romams_core.statespace import arx_to_ss
+    from romams_core.training import _Records, minimal_arx_realization
+
+    a = np.zeros((4, 1, 1))
+    a[0] = 0.8
+    b = np.zeros((4, 1, 1))
+    b[0], b[1] = 1.0, 0.5
+    full = arx_to_ss(ArxModel(a=a, b=b, dt_star=0.1))  # a first-order system realized with 7 states
+    assert full.n_states == 7 and np.linalg.cond(np.linalg.eig(full.A)[1]) > 1e12
+    rng = np.random.default_rng(3)
+    rec = _Records(rng.standard_normal((300, 1)), rng.standard_normal((200, 1)))
+    f = rec.simulate(full.simulate)
+    red = minimal_arx_realization(full, rec, f, 300)
+    assert red.n_states == 1 and red.is_stable()
+    ks = np.array([0.0, 0.05, 0.3, 1.0])
+    np.testing.assert_allclose(red.freqresp(ks), full.freqresp(ks), rtol=1e-8)
+    assert np.max(nrmse(f[300:], rec.simulate(red.simulate)[300:])) < 1e-8
+    noisy = f + 1e-3 * rng.standard_normal(f.shape)  # the records it validates on do not change the model kept
+    assert minimal_arx_realization(full, rec, noisy, 300).n_states == 1
