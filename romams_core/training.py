@@ -332,10 +332,11 @@ def _identify(
             "1/conj(z) (output map refitted when that validated better), then validated"
         )
     ss, hsv = full, np.zeros(0)
+    arx_val = nrmse(gac[n:], pred_arx[n:])  # the full realization's validation error
     if reduce_order == "auto":
         if progress is not None:
             progress(0.95, "frequency-limited balanced truncation")
-        ss, hsv = _auto_reduce(full, both, gac, n, m, k_max, reduce_tol)
+        ss, hsv = _auto_reduce(full, both, gac, n, m, k_max, reduce_tol, arx_val)
     elif reduce_order is not None or hsv_tol is not None:
         if progress is not None:
             progress(0.95, "balanced truncation")
@@ -343,7 +344,7 @@ def _identify(
                                       hsv_tol=hsv_tol)
     pred = both.simulate(ss.simulate)[n:] if ss is not full else pred_arx[n:]
     return _Fit(na=na, nb=nb, arx=arx, full=full, ss=ss, hsv=hsv, pred=pred, val=nrmse(gac[n:], pred),
-                training_nrmse=nrmse(gac[:n], pred_arx[:n]), arx_val=nrmse(gac[n:], pred_arx[n:]),
+                training_nrmse=nrmse(gac[:n], pred_arx[:n]), arx_val=arx_val,
                 ar_ridge=ar_ridge, notes=notes)
 
 
@@ -368,10 +369,12 @@ def _stabilize(
 
 
 def _auto_reduce(
-    full: DiscreteSS, u: _Records, f: np.ndarray, n_train: int, m: int, k_band: float, tol: float
+    full: DiscreteSS, u: _Records, f: np.ndarray, n_train: int, m: int, k_band: float, tol: float,
+    err_full: np.ndarray
 ) -> tuple[DiscreteSS, np.ndarray]:
     """Smallest stable band-limited balanced truncation (orders m, 2m, ...) with validation NRMSE <= tol; when
-    none passes, the minimal realization of ``full`` (:func:`minimal_arx_realization`)."""
+    none passes, the minimal realization of ``full`` (:func:`minimal_arx_realization`; ``err_full`` the validation
+    NRMSE of ``full``)."""
     orders = list(range(m, full.n_states, m))
     models, hsv = balanced_models(full, orders, k_band=k_band)
     for red in models:  # a handful of candidate orders
@@ -380,13 +383,14 @@ def _auto_reduce(
         err = nrmse(f[n_train:], u.simulate(red.simulate)[n_train:])
         if np.all(err <= tol):
             return red, hsv
-    return minimal_arx_realization(full, u, f, n_train), hsv
+    return minimal_arx_realization(full, u, f, n_train, err_full), hsv
 
 
-def minimal_arx_realization(full: DiscreteSS, u: _Records, f: np.ndarray, n_train: int) -> DiscreteSS:
+def minimal_arx_realization(full: DiscreteSS, u: _Records, f: np.ndarray, n_train: int,
+                            err_full: np.ndarray) -> DiscreteSS:
     """The balanced realization of ``full`` without the states it neither drives nor sees (plain balanced
     truncation at HSV ``MINIMAL_HSV_TOL`` of the largest), kept only if it is stable and validates as well as
-    ``full`` (NRMSE within 0.1 % of its value); else ``full``.
+    ``full`` (validation NRMSE within 0.1 % of ``err_full``, the one of ``full``); else ``full``.
 
     An ARX realization carries shift-register states (the delayed inputs and outputs) that are repeated,
     defective poles at z = 0 with barely or not excited directions: its eigenvectors are numerically singular
@@ -397,6 +401,5 @@ def minimal_arx_realization(full: DiscreteSS, u: _Records, f: np.ndarray, n_trai
     minimal, _ = balanced_truncation(full, hsv_tol=MINIMAL_HSV_TOL)
     if minimal.n_states >= full.n_states or not minimal.is_stable():
         return full
-    err_full = nrmse(f[n_train:], u.simulate(full.simulate)[n_train:])
     err_min = nrmse(f[n_train:], u.simulate(minimal.simulate)[n_train:])
     return minimal if np.all(err_min <= 1.001 * err_full + 1e-12) else full

@@ -148,10 +148,11 @@ def test_an_unreduced_arx_rom_keeps_its_minimal_balanced_realization():
     rng = np.random.default_rng(3)
     rec = _Records(rng.standard_normal((300, 1)), rng.standard_normal((200, 1)))
     f = rec.simulate(full.simulate)
-    red = minimal_arx_realization(full, rec, f, 300)
+    red = minimal_arx_realization(full, rec, f, 300, nrmse(f[300:], rec.simulate(full.simulate)[300:]))
     assert red.n_states == 1 and red.is_stable()
     ks = np.array([0.0, 0.05, 0.3, 1.0])
     np.testing.assert_allclose(red.freqresp(ks), full.freqresp(ks), rtol=1e-8)
     assert np.max(nrmse(f[300:], rec.simulate(red.simulate)[300:])) < 1e-8
     noisy = f + 1e-3 * rng.standard_normal(f.shape)  # the records it validates on do not change the model kept
-    assert minimal_arx_realization(full, rec, noisy, 300).n_states == 1
+    err_full = nrmse(noisy[300:], rec.simulate(full.simulate)[300:])
+    assert minimal_arx_realization(full, rec, noisy, 300, err_full).n_states == 1

@@ -18,6 +18,8 @@ import math
 import numba
 import numpy as np
 
+from romams_core.aero.protocol import check_mach
+
 __all__ = ["planar_dlm_increment"]
 
 #: Laschka's exponential approximation of u / sqrt(1 + u^2): 1 - u / sqrt(1 + u^2) ~ sum a_n exp(-n c u), u >= 0
@@ -116,8 +118,7 @@ def planar_dlm_increment(receivers: np.ndarray, boxes: dict[str, np.ndarray], ma
     z = np.concatenate([receivers[:, 2], load[:, 2], p_minus[:, 2], p_plus[:, 2]])
     if np.ptp(z) > 1e-9 * max(1.0, float(np.abs(z).max())):
         raise ValueError("receivers / boxes: the compiled DLM kernel needs a planar lattice (all z equal)")
-    if not 0.0 <= mach < 1.0:
-        raise ValueError(f"mach: the DLM needs 0 <= M < 1, got {mach}")
+    mach = check_mach(mach, upper=1.0)
     xy = np.ascontiguousarray
     with np.errstate(all="ignore"):
         return _increment(xy(receivers[:, :2], dtype=float), xy(load[:, :2]), xy(p_minus[:, :2]),
