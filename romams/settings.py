@@ -46,6 +46,10 @@ class Settings(BaseSettings):
         "empty = no CORS headers (browsers refuse cross-origin calls)")
     api_threads: int = Field(default=40, ge=1, description="threads of an API process for its synchronous "
                              "handlers (the concurrency the database pool is sized to)")
+    malloc_arena_max: int = Field(default=2, ge=0, description="glibc malloc arenas of an API process (caps the "
+                                  "memory its thread pool keeps after a burst of requests); 0 = glibc's default")
+    heap_trim_s: float = Field(default=30.0, ge=0, description="period (s) at which an API process returns freed "
+                               "heap pages to the kernel (malloc_trim); 0 = never")
     db_pool_size: int = Field(default=0, ge=0, description="database connections kept per process (server "
                               "databases); 0 = api_threads + 4 (the handlers, the sweeper and the heartbeat)")
     batch_sync_max: int = Field(default=64, ge=1, description="largest flutter batch answered synchronously")

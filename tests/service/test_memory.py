@@ -1,0 +1,78 @@
+"""The API process hands freed heap memory back to the kernel (romams.memory, docs/reliability.md)."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+
+from api.app import create_app
+from romams.memory import HeapTrimmer, _glibc, limit_malloc_arenas, trim_heap
+from romams.settings import Settings
+
+pytestmark = pytest.mark.skipif(_glibc() is None, reason="malloc_trim and mallopt are glibc's")
+CHUNK, COUNT = 1024, 60_000  # 60 MiB in chunks glibc serves from its heap (below the mmap threshold)
+
+
+def rss_mib() -> float:
+    """Resident set size of this process, MiB."""
+    with open("/proc/self/status") as f:
+        line = next(x for x in f if x.startswith("VmRSS:"))
+    return int(line.split()[1]) / 1024
+
+
+def fragmented_free_memory() -> list[bytes]:
+    """Allocate COUNT chunks, free all but one allocated after them: the free run cannot shrink the heap's top."""
+    chunks = [bytes(CHUNK) for _ in range(COUNT)]
+    keep = [bytes(CHUNK)]  # allocated last: pins the top of the heap
+    for i in range(COUNT):
+        chunks[i] = b""
+    del chunks
+    return keep
+
+
+def test_trim_hands_a_freed_run_of_heap_back_to_the_kernel() -> None:
+    """60 MiB freed below a live chunk stay resident until trim_heap; then at least 30 MiB are released."""
+    keep = fragmented_free_memory()
+    before = rss_mib()
+    assert trim_heap()
+    after = rss_mib()
+    assert before - after >= 30.0, (before, after)
+    assert keep
+
+
+def test_the_trimmer_thread_trims_periodically_and_stops() -> None:
+    """HeapTrimmer releases the same run on its own within a second and its thread ends on stop()."""
+    trimmer = HeapTrimmer(0.05).start()
+    try:
+        keep = fragmented_free_memory()
+        peak = rss_mib()
+        deadline = time.monotonic() + 5.0
+        while rss_mib() > peak - 30.0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert rss_mib() <= peak - 30.0
+        assert keep
+    finally:
+        trimmer.stop()
+    assert not any(t.name == "romams-heap-trim" for t in threading.enumerate())
+
+
+def test_arena_limit_is_applied_only_for_a_positive_count() -> None:
+    assert limit_malloc_arenas(0) is False
+    assert limit_malloc_arenas(8) is True
+
+
+def test_the_api_runs_its_trimmer_while_it_serves(tmp_path: Path) -> None:
+    """create_app's lifespan starts the trimmer (heap_trim_s > 0) and stops it at shutdown; 0 turns it off."""
+    def trimmers() -> int:
+        return sum(t.name == "romams-heap-trim" for t in threading.enumerate())
+
+    with TestClient(create_app(Settings(data_dir=tmp_path / "a", heap_trim_s=0.05), sweeper=False)) as c:
+        assert c.get("/api/v1/health").status_code == 200
+        assert trimmers() == 1
+    assert trimmers() == 0
+    with TestClient(create_app(Settings(data_dir=tmp_path / "b", heap_trim_s=0), sweeper=False)):
+        assert trimmers() == 0
