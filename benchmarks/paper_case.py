@@ -1,7 +1,7 @@
 """The ROM-AMS paper's optimization case (section 3) regenerated in process, printed as ONE JSON object.
 
     python -m benchmarks.paper_case [--quick] [--solver dlm] [--generations G] [--plot DIR] [--processes P]
-        [--anchor-k K ...] --json
+        [--anchor-k K ...] [--rom-dir DIR] --json
 
 The cropped delta wing with the ECCENTRIC stiffener (``cropped_delta(beam_placement="eccentric")``, the paper's
 Fig. 5: the beam glued to the plate's face), no server:
@@ -34,6 +34,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402
+import hashlib  # noqa: E402
 import itertools  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
@@ -47,6 +48,7 @@ import numpy as np  # noqa: E402
 
 from benchmarks.accuracy_rom_ams import pct_error  # noqa: E402
 from benchmarks.run import load_example  # noqa: E402
+from romams import serialize  # noqa: E402
 from romams.pipeline import train_shape_sets  # noqa: E402
 from romams.services.evaluation import (  # noqa: E402
     Models,
@@ -54,7 +56,7 @@ from romams.services.evaluation import (  # noqa: E402
     pms_summary,
     structure_modal,
 )
-from romams.services.training import SOLVERS, rom_identity, train  # noqa: E402
+from romams.services.training import SOLVERS, rom_identity  # noqa: E402
 from romams_core.basis import Basis, build_basis_for_wing, mac, snapshot  # noqa: E402
 from romams_core.mesh import standard_mesh  # noqa: E402
 from romams_core.wing import WingDefinition, cropped_delta  # noqa: E402
@@ -120,30 +122,69 @@ class InProcessService:
 
 
 # ---- models ------------------------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class Trainer:
+    """How the case trains its ROMs: the Machs in ``processes`` processes; with ``rom_dir``, every ROM is kept
+    there (keyed by mesh, shapes, Mach and ROM identity) and read back by a later run instead of retrained."""
+
+    processes: int = 1
+    rom_dir: Path | None = None
+
+    def _path(self, mesh: Any, shapes: np.ndarray, mach: float, ident: Mapping[str, Any]) -> Path:
+        """File of one ROM in ``rom_dir``."""
+        assert self.rom_dir is not None
+        h = hashlib.sha256(json.dumps(dict(ident), sort_keys=True, default=str).encode())
+        for a in (np.asarray(mesh.x, dtype=float), np.asarray(mesh.y, dtype=float), np.asarray(shapes, dtype=float)):
+            h.update(np.ascontiguousarray(a).tobytes())
+        return self.rom_dir / f"rom-M{mach:g}-{h.hexdigest()[:20]}.npz"
+
+    def roms(self, mesh: Any, shapes: np.ndarray, machs: Sequence[float], ident: Mapping[str, Any]) -> list[Any]:
+        """ROMs of one shape set [N, k] at ``machs`` (in that order): stored ones read, the others trained."""
+        paths = [self._path(mesh, shapes, float(m), ident) if self.rom_dir else None for m in machs]
+        out: list[Any] = [_read_rom(p) if p is not None and p.exists() else None for p in paths]
+        todo = [j for j, r in enumerate(out) if r is None]
+        if todo:
+            (trained,) = train_shape_sets(mesh, [shapes], [float(machs[j]) for j in todo], ident, self.processes)
+            for j, rom in zip(todo, trained, strict=True):
+                out[j] = rom
+                if paths[j] is not None:
+                    _write_rom(paths[j], rom)
+        if len(todo) < len(out):
+            log(f"{len(out) - len(todo)} of {len(out)} ROMs read from {self.rom_dir}")
+        return out
+
+
+def _write_rom(path: Path, rom: Any) -> None:
+    """Store one ROM (the service's serializer: JSON meta + NPZ blob in one NPZ file)."""
+    meta, blob = serialize.dumps(rom)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".part")
+    np.savez(tmp, meta=np.array(json.dumps(meta)), blob=np.frombuffer(blob, dtype=np.uint8))
+    Path(str(tmp) + ".npz").replace(path)
+
+
+def _read_rom(path: Path) -> Any:
+    """A ROM stored by :func:`_write_rom`."""
+    with np.load(path, allow_pickle=False) as f:
+        return serialize.loads(json.loads(str(f["meta"])), f["blob"].tobytes())
 def build_models(wing: WingDefinition, machs: Sequence[float], ident: Mapping[str, Any], samples: int = 25,
-                 mac_threshold: float = 0.9999, max_basis: int = 12, seed: int = 0, processes: int = 1
+                 mac_threshold: float = 0.9999, max_basis: int = 12, seed: int = 0, trainer: Trainer = Trainer()
                  ) -> tuple[Models, dict[str, Any]]:
-    """Basis (LHS samples x 4 modes) and one ROM per Mach on it (Machs in ``processes`` processes; 1: in this
-    process, one after the other, with a time per Mach); with the basis data and timings (s)."""
+    """Basis (LHS samples x 4 modes) and one ROM per Mach on it (by ``trainer``); with the basis data and timings
+    (s)."""
     mesh = standard_mesh(wing.planform)
     t0 = time.perf_counter()
     basis = build_basis_for_wing(wing, samples=samples, modes=4, mac_threshold=mac_threshold, max_basis=max_basis,
                                  seed=seed)
     t_basis = time.perf_counter() - t0
     log(f"basis: {basis.message} ({t_basis:.1f} s)")
-    roms, t_train = {}, {}
-    if processes == 1:
-        for m in machs:
-            t0 = time.perf_counter()
-            roms[float(m)] = (0, train(mesh, basis.shapes, float(m), ident))
-            t_train[f"{m:g}"] = time.perf_counter() - t0
-            log(f"ROM at M {m:g}: {t_train[f'{m:g}']:.1f} s")
-    else:
-        t0 = time.perf_counter()
-        (trained,) = train_shape_sets(mesh, [basis.shapes], machs, ident, processes)
-        roms = {float(m): (0, rom) for m, rom in zip(machs, trained, strict=True)}
-        t_train["all"] = time.perf_counter() - t0
-        log(f"ROMs at {len(machs)} Machs in {processes} processes: {t_train['all']:.1f} s")
+    t0 = time.perf_counter()
+    trained = trainer.roms(mesh, basis.shapes, machs, ident)
+    roms = {float(m): (0, rom) for m, rom in zip(machs, trained, strict=True)}
+    t_train = {"all": time.perf_counter() - t0}
+    log(f"ROMs at {len(machs)} Machs in {trainer.processes} processes: {t_train['all']:.1f} s")
     info = {"samples": samples, "modes_per_sample": 4, "mac_threshold": mac_threshold, "max_basis": max_basis,
             "n_basis": int(basis.n_basis), "capped": bool(basis.capped), "worst_sample_mac": float(basis.min_mac),
             "worst_sample_mac_by_size": [float(x) for x in basis.min_mac_by_m], "basis_s": t_basis,
@@ -156,12 +197,11 @@ def models_at(models: Models, machs: Sequence[float]) -> Models:
     return dataclasses.replace(models, roms={float(m): models.roms[float(m)] for m in machs})
 
 
-def own_roms(models: Models, shapes: np.ndarray, ident: Mapping[str, Any], processes: int = 1
+def own_roms(models: Models, shapes: np.ndarray, ident: Mapping[str, Any], trainer: Trainer = Trainer()
              ) -> dict[float, tuple[int, Any]]:
-    """ROMs trained on ``shapes`` [N, k] at every Mach of ``models`` (ROM-PMS), mach -> (0, rom); the Machs in
-    ``processes`` processes."""
+    """ROMs trained on ``shapes`` [N, k] at every Mach of ``models`` (ROM-PMS) by ``trainer``, mach -> (0, rom)."""
     machs = sorted(models.roms)
-    (trained,) = train_shape_sets(models.mesh, [shapes], machs, ident, processes)
+    trained = trainer.roms(models.mesh, shapes, machs, ident)
     return {m: (0, rom) for m, rom in zip(machs, trained, strict=True)}
 
 
@@ -212,12 +252,12 @@ def structure_record(summary: Mapping[str, Any]) -> dict[str, Any]:
             "flutter": flutter_rows(summary)}
 
 
-def ams_and_pms(models: Models, design: Any, ident: Mapping[str, Any], cache: Memo, processes: int = 1
+def ams_and_pms(models: Models, design: Any, ident: Mapping[str, Any], cache: Memo, trainer: Trainer = Trainer()
                 ) -> tuple[dict, dict, Any, Any]:
     """(ROM-AMS summary, ROM-PMS summary, ROM-AMS result, modal) of one design at the Machs of ``models``."""
     modal = structure_modal(models, design)
     ams, ams_result = evaluate_structure_summary(models, design=design, cache=cache)
-    pms, _ = pms_summary(models, modal, own_roms(models, modal.shapes, ident, processes), cache=cache)
+    pms, _ = pms_summary(models, modal, own_roms(models, modal.shapes, ident, trainer), cache=cache)
     return ams, pms, ams_result, modal
 
 
@@ -232,7 +272,7 @@ def contrasting_pair(wing: WingDefinition, basis: Basis) -> tuple[int, int, floa
     return best
 
 
-def table5(models: Models, ident: Mapping[str, Any], cache: Memo, processes: int = 1
+def table5(models: Models, ident: Mapping[str, Any], cache: Memo, trainer: Trainer = Trainer()
            ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Table 5: ROM-AMS vs ROM-PMS at M 0.87 of the two most contrasting basis samples (var1, var2)."""
     at = models_at(models, [TABLE5_MACH])
@@ -240,7 +280,7 @@ def table5(models: Models, ident: Mapping[str, Any], cache: Memo, processes: int
     rows = []
     for name, k in (("var1", i), ("var2", j)):
         x = models.basis.designs[k].tolist()
-        ams, pms, _, _ = ams_and_pms(at, x, ident, cache, processes)
+        ams, pms, _, _ = ams_and_pms(at, x, ident, cache, trainer)
         paper = PAPER_TABLE5[name]
         row = {"design": name, "lhs_sample": k, "x": dict(zip(models.wing.variable_names, x, strict=True)),
                **comparison_rows(ams, pms)[0], "mac": ams["mac"], "frequencies_hz": ams["frequencies_hz"],
@@ -251,7 +291,7 @@ def table5(models: Models, ident: Mapping[str, Any], cache: Memo, processes: int
 
 
 def fixed_mode_shapes(models: Models, modal_opt: Any, v_own: float | None, ident: Mapping[str, Any],
-                      cache: Memo, processes: int = 1) -> tuple[dict[str, Any], Any]:
+                      cache: Memo, trainer: Trainer = Trainer()) -> tuple[dict[str, Any], Any]:
     """Fig. 19/20: the optimum's frequencies and mass with the baseline plate's mass-normalized mode shapes (unit
     generalized masses, stiffnesses omega_opt^2: only the frequencies change) at M 0.87, ROMs trained on those
     shapes; flutter speed against the optimum's own modes (``v_own``, m/s). Returns (JSON, StructureEvaluation)."""
@@ -259,7 +299,7 @@ def fixed_mode_shapes(models: Models, modal_opt: Any, v_own: float | None, ident
     base = structure_modal(at, None)
     frozen = dataclasses.replace(base, omega=modal_opt.omega, frequencies_hz=modal_opt.frequencies_hz,
                                  mass_kg=modal_opt.mass_kg)
-    summary, result = pms_summary(at, frozen, own_roms(at, base.shapes, ident, processes), cache=cache)
+    summary, result = pms_summary(at, frozen, own_roms(at, base.shapes, ident, trainer), cache=cache)
     row = summary["results"][0]
     v_fixed, _ = _speeds(row)
     mac_shapes = [float(mac(base.shapes[:, k], modal_opt.shapes[:, k])) for k in range(base.shapes.shape[1])]
@@ -330,7 +370,7 @@ def write_plots(out: Path, problem: Any, run_: dict[str, Any], baseline: dict[st
 def run(*, solver: str = "dlm", generations: int = EX.PAPER_GENERATIONS, popsize: int = EX.PAPER_NP, seed: int = 0,
         machs: Sequence[float] = EX.PAPER_MACHS, samples: int = 25, mac_threshold: float = 0.9999,
         max_basis: int = 12, train_options: Mapping[str, Any] | None = None, beam_placement: str = "eccentric",
-        plot_dir: Path | None = None, processes: int = 1) -> dict[str, Any]:
+        plot_dir: Path | None = None, processes: int = 1, rom_dir: Path | None = None) -> dict[str, Any]:
     """The whole case; returns the JSON-able result (keys: table5, table7, table8, fixed_mode_shapes_error_pct,
     mass_reduction_pct, optimum, settings, timings, paper ...)."""
     if TABLE5_MACH not in [float(m) for m in machs]:
@@ -338,10 +378,11 @@ def run(*, solver: str = "dlm", generations: int = EX.PAPER_GENERATIONS, popsize
     t_start = time.perf_counter()
     wing = cropped_delta(beam_placement=beam_placement)
     ident = rom_identity(solver, options=train_options, wing=wing)
-    models, basis_info = build_models(wing, machs, ident, samples, mac_threshold, max_basis, processes=processes)
+    trainer = Trainer(processes, rom_dir)
+    models, basis_info = build_models(wing, machs, ident, samples, mac_threshold, max_basis, trainer=trainer)
     cache = Memo()
     t0 = time.perf_counter()
-    t5, pair = table5(models, ident, cache, processes)
+    t5, pair = table5(models, ident, cache, trainer)
     t_table5 = time.perf_counter() - t0
     log(f"Table 5 ({t_table5:.1f} s): " + ", ".join(f"{r['design']} {r['error_pct']}" for r in t5))
     service = InProcessService(models, cache)
@@ -350,12 +391,12 @@ def run(*, solver: str = "dlm", generations: int = EX.PAPER_GENERATIONS, popsize
     t_de = time.perf_counter() - t0
     x_opt = de["x"]
     t0 = time.perf_counter()
-    ams, pms, _, modal_opt = ams_and_pms(models, x_opt, ident, cache, processes)
+    ams, pms, _, modal_opt = ams_and_pms(models, x_opt, ident, cache, trainer)
     t8 = with_paper_table8(comparison_rows(ams, pms))
     t_table8 = time.perf_counter() - t0
     own_087 = next(r["v_rom_pms"] for r in t8 if r["mach"] == TABLE5_MACH)
     t0 = time.perf_counter()
-    fixed, fixed_result = fixed_mode_shapes(models, modal_opt, own_087, ident, cache, processes)
+    fixed, fixed_result = fixed_mode_shapes(models, modal_opt, own_087, ident, cache, trainer)
     t_fixed = time.perf_counter() - t0
     mass0, mass = float(baseline["mass_kg"]), float(ams["mass_kg"])
     paper_x = [EX.PAPER_OPTIMUM[n] for n in problem.names]
@@ -402,6 +443,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--max-basis", type=int, default=12, help="cap of the basis size (MAC >= 0.9999 decides)")
     ap.add_argument("--beam-placement", default="eccentric", choices=("eccentric", "mid-plane"))
     ap.add_argument("--processes", type=int, default=1, help="trainings in this many processes (the Machs)")
+    ap.add_argument("--rom-dir", type=Path, default=None, metavar="DIR",
+                    help="keep every trained ROM in DIR and reuse the stored ones (same mesh, shapes, Mach, identity)")
     ap.add_argument("--anchor-k", type=float, nargs="+", default=None,
                     help="tsd: the training option anchor_k (direct harmonic runs at these k, docs/transonic.md 7.7)")
     ap.add_argument("--plot", type=Path, default=None, metavar="DIR", help="write the figures (PNG) into DIR")
@@ -409,7 +452,7 @@ def main(argv: list[str] | None = None) -> None:
     a = ap.parse_args(argv)
     gens = a.generations if a.generations is not None else (QUICK_GENERATIONS if a.quick else EX.PAPER_GENERATIONS)
     res = run(solver=a.solver, generations=gens, popsize=a.popsize, seed=a.seed, max_basis=a.max_basis,
-              beam_placement=a.beam_placement, plot_dir=a.plot, processes=a.processes,
+              beam_placement=a.beam_placement, plot_dir=a.plot, processes=a.processes, rom_dir=a.rom_dir,
               train_options=None if a.anchor_k is None else {"anchor_k": list(a.anchor_k)})
     res["quick"] = bool(a.quick)
     print(json.dumps(res, indent=None if a.json else 1))

@@ -83,3 +83,37 @@ def test_baseline_and_paper_optimum_rows(result: dict) -> None:
     paper = result["paper_optimum_evaluated"]
     assert paper["mass_kg"] == pytest.approx(0.1668, rel=2e-3)
     assert len(paper["flutter"]) == len(MACHS)
+
+
+def test_rom_dir_keeps_trained_roms_and_reads_them_back(tmp_path, monkeypatch) -> None:
+    """``--rom-dir``: a ROM trained once is stored and read back unchanged; another identity trains anew."""
+    import io
+
+    import numpy as np
+
+    from romams import serialize
+    from romams.services.training import rom_identity
+    from romams_core.basis import snapshot
+    from romams_core.mesh import standard_mesh
+    from romams_core.wing import cropped_delta
+
+    wing = cropped_delta()
+    mesh, shapes = standard_mesh(wing.planform), snapshot(wing, None, 2)
+    ident = rom_identity("dlm", options={"k_values": [0.0, 0.1, 0.3, 0.6], "n_lags": 1}, wing=wing)
+    trainer = paper_case.Trainer(1, tmp_path)
+    (first,) = trainer.roms(mesh, shapes, [0.87], ident)
+    assert len(list(tmp_path.glob("rom-M0.87-*.npz"))) == 1
+
+    def no_training(*_a, **_k):
+        raise AssertionError("a stored ROM was trained again")
+
+    with monkeypatch.context() as m:
+        m.setattr(paper_case, "train_shape_sets", no_training)
+        (again,) = trainer.roms(mesh, shapes, [0.87], ident)
+    (meta1, blob1), (meta2, blob2) = serialize.dumps(first), serialize.dumps(again)
+    assert meta1 == meta2
+    with np.load(io.BytesIO(blob1)) as a, np.load(io.BytesIO(blob2)) as b:
+        assert a.files == b.files and all(np.array_equal(a[k], b[k]) for k in a.files)
+    other = rom_identity("dlm", options={"k_values": [0.0, 0.1, 0.3, 0.7], "n_lags": 1}, wing=wing)
+    trainer.roms(mesh, shapes, [0.87], other)
+    assert len(list(tmp_path.glob("rom-M0.87-*.npz"))) == 2
