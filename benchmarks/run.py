@@ -58,6 +58,7 @@ import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 MACHS = (0.79, 0.83, 0.87, 0.91, 0.95)
+EVAL_MAC = 0.9999  # the evaluations' fit criterion (only a note on a structure whose modes fit worse)
 TRAIN_OPTIONS = {"reduce_order": "auto"}  # uvlm ROMs of the examples: balanced truncation at training
 SOLVER = {"name": "dlm"}  # the aerodynamic solver of the in-process ROMs (``--solver``; the service's default)
 
@@ -86,8 +87,10 @@ def load_example(name: str) -> Any:
 
 
 # ---- in process ---------------------------------------------------------------------------------------
-def build_models(samples: int = 25, machs: tuple[float, ...] = MACHS) -> dict[str, Any]:
-    """Cropped-delta basis and ROMs (``SOLVER``) at ``machs``, in process, with their timings."""
+def build_models(samples: int = 25, machs: tuple[float, ...] = MACHS, modes: int = 4, max_basis: int = 8,
+                 mac_threshold: float = 0.9999) -> dict[str, Any]:
+    """Cropped-delta basis (``samples`` x ``modes`` snapshots, MAC ``mac_threshold``, at most ``max_basis``
+    shapes) and ROMs (``SOLVER``) at ``machs``, in process, with their timings (s)."""
     from romams.services.training import train
     from romams_core.basis import build_basis_for_wing
     from romams_core.mesh import standard_mesh
@@ -96,14 +99,16 @@ def build_models(samples: int = 25, machs: tuple[float, ...] = MACHS) -> dict[st
     wing = template("cropped-delta")
     mesh = standard_mesh(wing.planform)
     t0 = time.perf_counter()
-    basis = build_basis_for_wing(wing, samples=samples, modes=4, mac_threshold=0.9999, max_basis=8, seed=0)
+    basis = build_basis_for_wing(wing, samples=samples, modes=modes, mac_threshold=mac_threshold,
+                                 max_basis=max_basis, seed=0)
     t_basis = time.perf_counter() - t0
     roms, t_train = {}, []
     for m in machs:
         t0 = time.perf_counter()
         roms[float(m)] = train(mesh, basis.shapes, float(m), _ident())
         t_train.append(time.perf_counter() - t0)
-    return {"wing": wing, "mesh": mesh, "basis": basis, "roms": roms, "basis_s": t_basis, "train_s": t_train}
+    return {"wing": wing, "mesh": mesh, "basis": basis, "roms": roms, "basis_s": t_basis, "train_s": t_train,
+            "modes": modes}
 
 
 def eig_calibration_ms(n_matrices: int = 40, repeats: int = 5) -> float:
@@ -129,13 +134,14 @@ def structure_eval(models: dict[str, Any], n_designs: int, seed: int = 1) -> dic
     wing, mesh, basis, roms = models["wing"], models["mesh"], models["basis"], models["roms"]
     designs = random_designs(wing, n_designs + 1, seed=seed)
     zeta = wing.modal_damping or None
-    evaluate_structure(modal_analysis(wing, designs[0], 4, mesh), basis.shapes, roms, zeta=zeta)  # warm-up
+    k = models.get("modes", 4)
+    evaluate_structure(modal_analysis(wing, designs[0], k, mesh), basis.shapes, roms, zeta=zeta)  # warm-up
     modal_ms, flutter_ms, total_ms, wall_ms = [], [], [], []
     for x in designs[1:]:
         w0, t0 = time.perf_counter(), time.process_time()
-        modal = modal_analysis(wing, x, 4, mesh)
+        modal = modal_analysis(wing, x, k, mesh)
         t1 = time.process_time()
-        evaluate_structure(modal, basis.shapes, roms, mac_threshold=basis.mac_threshold, zeta=zeta)
+        evaluate_structure(modal, basis.shapes, roms, mac_threshold=EVAL_MAC, zeta=zeta)
         t2, w2 = time.process_time(), time.perf_counter()
         modal_ms.append(1e3 * (t1 - t0))
         flutter_ms.append(1e3 * (t2 - t1))
@@ -168,9 +174,9 @@ def batched_structure(models: dict[str, Any], n_batches: int, batch: int = 30, s
         stats = flutter_batch_mod.STATS
         stats.reset()
         w0, t0 = time.perf_counter(), time.process_time()
-        modals = [modal_analysis(wing, x, 4, mesh) for x in chunk]
+        modals = [modal_analysis(wing, x, models.get("modes", 4), mesh) for x in chunk]
         t1 = time.process_time()
-        evaluate_structures(modals, basis.shapes, roms, mac_threshold=basis.mac_threshold, zeta=zeta)
+        evaluate_structures(modals, basis.shapes, roms, mac_threshold=EVAL_MAC, zeta=zeta)
         t2, w2 = time.process_time(), time.perf_counter()
         if b:
             per.append(1e3 * (t2 - t0) / batch)
@@ -289,12 +295,14 @@ def _prepare(client: Any, samples: int, machs: tuple[float, ...]) -> tuple[int, 
     return wid, {"setup_s": time.perf_counter() - t0}
 
 
-def service_throughput(data_dir: Path, workers: int, n_batch: int, samples: int, seed: int) -> dict[str, Any]:
-    """Designs/s of one batch request of ``n_batch`` random designs on a live service with ``workers`` processes."""
+def service_throughput(data_dir: Path, workers: int, n_batch: int, samples: int, seed: int, **settings: Any
+                       ) -> dict[str, Any]:
+    """Designs/s of one batch request of ``n_batch`` random designs on a live service with ``workers`` processes
+    (``settings``: ROMAMS_* settings of the service, e.g. database_url and broker_url)."""
     from benchmarks.live_service import LiveService
     from client import RomamsClient
 
-    with LiveService(data_dir, concurrency=workers) as svc, RomamsClient(svc.url, timeout=600) as client:
+    with LiveService(data_dir, concurrency=workers, **settings) as svc, RomamsClient(svc.url, timeout=600) as client:
         wid, setup = _prepare(client, samples, MACHS)
         info = client.get_wing(wid)
         lo = np.array([v["lower"] for v in info["design_variables"]])
