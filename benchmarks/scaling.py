@@ -106,9 +106,14 @@ def throughput(quick: bool) -> dict[str, Any]:
         if pg is not None:
             pg[1]()
         return {"throughput_by_workers": None, "throughput_skipped": "PostgreSQL or Redis at 127.0.0.1 not reachable"}
+    from romams.persistence import dispose_engines, open_store
+    from romams.settings import Settings
+
     rows = []
     try:
         with tempfile.TemporaryDirectory(prefix="romams-scaling-") as tmp:
+            open_store(Settings(data_dir=Path(tmp), database_url=pg[0]), migrate=True)  # `alembic upgrade head`
+            dispose_engines()
             for w in WORKERS:
                 log(f"distributed service, {w} worker process(es)")
                 r = bench.service_throughput(Path(tmp), w, 120 if quick else 600, samples=25, seed=30 + w,
