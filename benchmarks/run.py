@@ -32,7 +32,7 @@
 - optimization_wall_s (not with --quick): a fresh service, basis (25 samples) + training at 5 Machs +
   the paper's DE (Np = 30, 150 generations = 4 530 structures) over HTTP, end to end.
 ``--all`` adds the other benchmark scripts' JSON (bench_modal, bench_projection, bench_training,
-bench_dlm, bench_flutter). Progress goes to stderr. Timings depend on the machine's load: it is reported.
+bench_dlm, bench_flutter, scaling). Progress goes to stderr. Timings depend on the machine's load: it is reported.
 """
 
 from __future__ import annotations
@@ -454,7 +454,7 @@ def sub_benchmarks() -> dict[str, Any]:
     """JSON of the other benchmark scripts (each run as its own process)."""
     out: dict[str, Any] = {}
     for name, args in (("bench_modal", []), ("bench_projection", []), ("bench_training", []),
-                       ("bench_dlm", []), ("bench_flutter", [])):
+                       ("bench_dlm", []), ("bench_flutter", []), ("scaling", [])):
         if not (ROOT / "benchmarks" / f"{name}.py").exists():
             continue
         log(f"running benchmarks.{name}")
