@@ -29,7 +29,7 @@ LASCHKA_A = np.array([0.24186198, -2.7918027, 24.991079, -111.59196, 271.43549, 
 LASCHKA_C = 0.372
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True)
 def _laschka_sums(u: float, k1: float, a: np.ndarray, c: float) -> tuple[complex, complex]:
     """Laschka's series S(u) = sum a_n exp(-n c u) (n c - i k1) / (n^2 c^2 + k1^2) at u >= 0 and at 0."""
     s_u, s_0 = 0.0j, 0.0j
@@ -44,7 +44,7 @@ def _laschka_sums(u: float, k1: float, a: np.ndarray, c: float) -> tuple[complex
     return s_u, s_0
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True)
 def _k1(x0: float, r1: float, k: float, mach: float, a: np.ndarray, c: float) -> tuple[complex, float]:
     """Planar kernel K1 and its steady value K10 at streamwise offset x0 and lateral distance r1 > 0."""
     beta2 = 1.0 - mach * mach
@@ -64,7 +64,7 @@ def _k1(x0: float, r1: float, k: float, mach: float, a: np.ndarray, c: float) ->
     return -i1 - ejku * mach * r1 / (big_r * root), -1.0 - x0 / big_r
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True)
 def _p1(xbar: float, ybar: float, ebar: float, tan_sweep: float, k: float, mach: float, shift: complex,
         a: np.ndarray, c: float) -> complex:
     """Planar kernel numerator P1 = -(K1 exp(-i k x0) - K10) at the point ``ebar`` of a doublet line, with
@@ -79,7 +79,7 @@ def _p1(xbar: float, ybar: float, ebar: float, tan_sweep: float, k: float, mach:
     return -(k1_full * shift - k10)
 
 
-@numba.njit(cache=True, fastmath=True)
+@numba.njit(cache=True)
 def _increment(recv: np.ndarray, load: np.ndarray, p_minus: np.ndarray, p_plus: np.ndarray, chord: np.ndarray,
                mach: float, k: float, a: np.ndarray, c: float) -> np.ndarray:
     """AIC increment [R, S] of receivers [R, 2] (x, y) and boxes (load point, line ends [S, 2], chord [S])."""
