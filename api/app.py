@@ -20,7 +20,7 @@ from api.middleware import RequestGuard, SecurityHeaders
 from api.responses import Health, ok
 from romams import __version__
 from romams.jobs import StaleSweeper
-from romams.memory import HeapTrimmer, limit_malloc_arenas
+from romams.memory import heap_trimmer, limit_malloc_arenas
 from romams.persistence import open_store
 from romams.settings import Settings, get_settings
 
@@ -55,7 +55,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
         # the threads running synchronous handlers: as many as the database pool holds connections for
         anyio.to_thread.current_default_thread_limiter().total_tokens = settings.api_threads
         limit_malloc_arenas(settings.malloc_arena_max)  # before the pool's threads exist (docs/reliability.md)
-        trimmer = HeapTrimmer(settings.heap_trim_s).start() if settings.heap_trim_s > 0 else None
+        trimmer = heap_trimmer(settings.heap_trim_s).start() if settings.heap_trim_s > 0 else None
         sw = (StaleSweeper(store, celery, settings.job_stale_s, queued_resend_s=settings.job_queued_resend_s).start()
               if sweeper else None)
         try:
@@ -64,7 +64,7 @@ def create_app(settings: Settings | None = None, *, celery: Any = None, sweeper:
             if sw is not None:
                 sw.stop()
             if trimmer is not None:
-                trimmer.stop()
+                trimmer.stop(join_s=5.0)
 
     app = RomamsAPI(title="romams", version=__version__, lifespan=lifespan, dependencies=[Depends(single_query_values)],
                     docs_url=None, redoc_url=None,

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import os
 import re
-import threading
 import time
 import traceback
 from collections.abc import Callable
@@ -24,6 +23,7 @@ from typing import Any
 import anyio
 import anyio.to_thread
 
+from romams.periodic import Periodic
 from romams.persistence import FINAL, DatabaseUnavailable, JobStatus, Store, UnitOfWork
 from romams.services.errors import error_dict
 from romams.services.queue import FINALIZE_FOR_KIND, TASK_FOR_KIND
@@ -150,28 +150,23 @@ async def wait_for_async(store: Store, job_id: str, timeout_s: float, poll_s: fl
 
 
 class _Heartbeat:
-    """Background thread touching a running job row every ``period_s`` seconds."""
+    """Background thread touching a running job row every ``period_s`` seconds (ends when the job is not ours)."""
 
     def __init__(self, store: Store, job_id: str, period_s: float) -> None:
-        self._stop = threading.Event()
-        self._t = threading.Thread(target=self._run, args=(store, job_id, period_s), daemon=True)
-
-    def _run(self, store: Store, job_id: str, period_s: float) -> None:
         jobs = store.jobs
-        while not self._stop.wait(period_s):
-            try:
-                if not jobs.heartbeat(job_id) and not jobs.update(job_id, expect=(JobStatus.QUEUED,),
-                                                                  status=JobStatus.RUNNING):
-                    return
-            except Exception:  # a transient database error must not kill the task
-                continue
+
+        def beat() -> bool:
+            return bool(jobs.heartbeat(job_id) or jobs.update(job_id, expect=(JobStatus.QUEUED,),
+                                                               status=JobStatus.RUNNING))
+
+        self._thread = Periodic(beat, period_s, "romams-heartbeat")
 
     def __enter__(self) -> _Heartbeat:
-        self._t.start()
+        self._thread.start()
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self._stop.set()
+        self._thread.stop()
 
 
 def progress_callback(store: Store, job_id: str, lo: float = 0.0, hi: float = 1.0,
@@ -336,26 +331,13 @@ def sweep_stale(store: Store, celery: Any, stale_s: float, queued_resend_s: floa
     return resent
 
 
-class StaleSweeper:
+class StaleSweeper(Periodic):
     """Daemon thread calling :func:`sweep_stale` periodically (runs in the API process)."""
 
     def __init__(self, store: Store, celery: Any, stale_s: float, period_s: float | None = None,
                  queued_resend_s: float | None = None) -> None:
         self.store, self.celery, self.stale_s, self.queued_resend_s = store, celery, stale_s, queued_resend_s
-        self.period_s = period_s or max(1.0, stale_s / 4)
-        self._stop = threading.Event()
-        self._t = threading.Thread(target=self._run, daemon=True, name="romams-stale-sweeper")
+        super().__init__(self._sweep, period_s or max(1.0, stale_s / 4), "romams-stale-sweeper")
 
-    def _run(self) -> None:
-        while not self._stop.wait(self.period_s):
-            try:
-                sweep_stale(self.store, self.celery, self.stale_s, self.queued_resend_s)
-            except Exception:  # noqa: BLE001 - keep sweeping after a transient error
-                continue
-
-    def start(self) -> StaleSweeper:
-        self._t.start()
-        return self
-
-    def stop(self) -> None:
-        self._stop.set()
+    def _sweep(self) -> None:
+        sweep_stale(self.store, self.celery, self.stale_s, self.queued_resend_s)

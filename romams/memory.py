@@ -11,8 +11,9 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import functools
-import threading
 from typing import Any
+
+from romams.periodic import Periodic
 
 M_ARENA_MAX = -8  # mallopt parameter number of glibc's malloc.h
 
@@ -46,22 +47,10 @@ def trim_heap() -> bool:
     return bool(libc is not None and libc.malloc_trim(ctypes.c_size_t(0)))
 
 
-class HeapTrimmer:
-    """Daemon thread calling :func:`trim_heap` every ``period_s`` seconds."""
+def heap_trimmer(period_s: float) -> Periodic:
+    """A (not yet started) daemon thread calling :func:`trim_heap` every ``period_s`` seconds."""
 
-    def __init__(self, period_s: float) -> None:
-        self.period_s = period_s
-        self._stop = threading.Event()
-        self._t = threading.Thread(target=self._run, daemon=True, name="romams-heap-trim")
+    def trim() -> None:  # whether pages were released does not matter: the thread keeps going
+        trim_heap()
 
-    def _run(self) -> None:
-        while not self._stop.wait(self.period_s):
-            trim_heap()
-
-    def start(self) -> HeapTrimmer:
-        self._t.start()
-        return self
-
-    def stop(self) -> None:
-        self._stop.set()
-        self._t.join(timeout=5.0)
+    return Periodic(trim, period_s, "romams-heap-trim")

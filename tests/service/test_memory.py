@@ -10,7 +10,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from api.app import create_app
-from romams.memory import HeapTrimmer, _glibc, limit_malloc_arenas, trim_heap
+from romams.memory import _glibc, heap_trimmer, limit_malloc_arenas, trim_heap
 from romams.settings import Settings
 
 pytestmark = pytest.mark.skipif(_glibc() is None, reason="malloc_trim and mallopt are glibc's")
@@ -45,8 +45,8 @@ def test_trim_hands_a_freed_run_of_heap_back_to_the_kernel() -> None:
 
 
 def test_the_trimmer_thread_trims_periodically_and_stops() -> None:
-    """HeapTrimmer releases the same run on its own within a second and its thread ends on stop()."""
-    trimmer = HeapTrimmer(0.05).start()
+    """heap_trimmer releases the same run on its own within a second and its thread ends on stop()."""
+    trimmer = heap_trimmer(0.05).start()
     try:
         keep = fragmented_free_memory()
         peak = rss_mib()
@@ -56,7 +56,7 @@ def test_the_trimmer_thread_trims_periodically_and_stops() -> None:
         assert rss_mib() <= peak - 30.0
         assert keep
     finally:
-        trimmer.stop()
+        trimmer.stop(join_s=5.0)
     assert not any(t.name == "romams-heap-trim" for t in threading.enumerate())
 
 
