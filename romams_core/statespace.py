@@ -31,6 +31,8 @@ __all__ = [
     "tustin_lu",
     "tustin_matrices",
     "spectral_radius",
+    "eigenvector_condition",
+    "DIAG_COND_MAX",
     "reflect_unstable_poles",
     "refit_output_map",
 ]
@@ -143,6 +145,18 @@ class ContinuousSS:
         return bool(self.n_states == 0 or np.max(np.linalg.eigvals(self.A).real) < 0.0)
 
 
+#: Eigenvector condition number above which a model is not diagonalized (the flutter search's fast path is not used).
+DIAG_COND_MAX = 1e6
+
+
+def eigenvector_condition(a: np.ndarray) -> float:
+    """2-norm condition number of the eigenvector matrix of ``a`` (dimensionless; inf when not finite, 1 if empty)."""
+    if not a.size:
+        return 1.0
+    w = np.linalg.eig(a)[1]
+    return float(np.linalg.cond(w)) if np.all(np.isfinite(w)) else math.inf
+
+
 def spectral_radius(a: np.ndarray) -> float:
     """max |eig(a)| (0 for an empty matrix)."""
     return float(np.max(np.abs(np.linalg.eigvals(a)))) if a.size else 0.0
@@ -224,20 +238,29 @@ def balanced_truncation(
     factors = _balancing_factors(ss, k_band)
     hsv = factors[1]
     if order is None:
-        tol = 1e-8 if hsv_tol is None else float(hsv_tol)
-        if not (math.isfinite(tol) and tol >= 0):
-            raise InputError("hsv_tol", f"must be a finite number >= 0, got {hsv_tol!r}")
-        order = int(np.sum(hsv > tol * hsv[0])) if hsv.size and hsv[0] > 0 else 0
+        order = hsv_order(hsv, 1e-8 if hsv_tol is None else hsv_tol)
     if not (isinstance(order, int | np.integer) and 0 <= order <= ss.n_states):
         raise InputError("order", f"must be an integer in [0, {ss.n_states}], got {order!r}")
     return _truncate(ss, factors, int(order)), hsv
 
 
+def hsv_order(hsv: np.ndarray, hsv_tol: float) -> int:
+    """Number of Hankel singular values above ``hsv_tol`` times the largest (``hsv`` descending)."""
+    tol = float(hsv_tol)
+    if not (math.isfinite(tol) and tol >= 0):
+        raise InputError("hsv_tol", f"must be a finite number >= 0, got {hsv_tol!r}")
+    return int(np.sum(hsv > tol * hsv[0])) if hsv.size and hsv[0] > 0 else 0
+
+
 def balanced_models(
-    ss: DiscreteSS, orders: list[int], k_band: float | None = None
+    ss: DiscreteSS, orders: list[int] | None = None, k_band: float | None = None,
+    hsv_tols: list[float] | None = None,
 ) -> tuple[list[DiscreteSS], np.ndarray]:
-    """Balanced truncations of ``ss`` at several orders from one balancing; returns (models, HSV)."""
+    """Balanced truncations of ``ss`` from one balancing, at ``orders`` or (when ``orders`` is None) at the orders
+    that keep the HSVs above each of ``hsv_tols`` times the largest; returns (models, HSV)."""
     factors = _balancing_factors(ss, k_band)
+    if orders is None:
+        orders = [hsv_order(factors[1], t) for t in hsv_tols or ()]
     return [_truncate(ss, factors, int(r)) for r in orders], factors[1]
 
 

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from romams_core.errors import InputError
-from romams_core.statespace import tustin_lu, tustin_matrices
+from romams_core.statespace import DIAG_COND_MAX, tustin_lu, tustin_matrices
 
 from .inputs import aero_matrices
 
@@ -46,7 +46,6 @@ class AeroPrep:
 
 PREP_CACHE: dict[tuple[Any, ...], AeroPrep] = {}
 PREP_CACHE_SIZE = 64
-DIAG_COND_MAX = 1e6  # eigenvector condition number above which the fast (diagonalized) path is not used
 
 
 def _continuous_prep(a: np.ndarray) -> AeroPrep:
