@@ -32,6 +32,7 @@ __all__ = [
     "tustin_matrices",
     "spectral_radius",
     "eigenvector_condition",
+    "diagonally_scaled",
     "DIAG_COND_MAX",
     "reflect_unstable_poles",
     "refit_output_map",
@@ -238,29 +239,30 @@ def balanced_truncation(
     factors = _balancing_factors(ss, k_band)
     hsv = factors[1]
     if order is None:
-        order = hsv_order(hsv, 1e-8 if hsv_tol is None else hsv_tol)
+        tol = 1e-8 if hsv_tol is None else float(hsv_tol)
+        if not (math.isfinite(tol) and tol >= 0):
+            raise InputError("hsv_tol", f"must be a finite number >= 0, got {hsv_tol!r}")
+        order = int(np.sum(hsv > tol * hsv[0])) if hsv.size and hsv[0] > 0 else 0
     if not (isinstance(order, int | np.integer) and 0 <= order <= ss.n_states):
         raise InputError("order", f"must be an integer in [0, {ss.n_states}], got {order!r}")
     return _truncate(ss, factors, int(order)), hsv
 
 
-def hsv_order(hsv: np.ndarray, hsv_tol: float) -> int:
-    """Number of Hankel singular values above ``hsv_tol`` times the largest (``hsv`` descending)."""
-    tol = float(hsv_tol)
-    if not (math.isfinite(tol) and tol >= 0):
-        raise InputError("hsv_tol", f"must be a finite number >= 0, got {hsv_tol!r}")
-    return int(np.sum(hsv > tol * hsv[0])) if hsv.size and hsv[0] > 0 else 0
+def diagonally_scaled(ss: DiscreteSS) -> DiscreteSS:
+    """The same model under the diagonal similarity (powers of 2, LAPACK gebal) that balances the row and column
+    norms of A: exactly the same transfer matrix, far better scaled gramians for an ARX realization."""
+    if ss.n_states == 0:
+        return ss
+    _, (s, _) = sla.matrix_balance(ss.A, permute=False, separate=True)
+    return DiscreteSS(A=ss.A * s[None, :] / s[:, None], B=ss.B / s[:, None], C=ss.C * s[None, :], D=ss.D.copy(),
+                      dt_star=ss.dt_star)
 
 
 def balanced_models(
-    ss: DiscreteSS, orders: list[int] | None = None, k_band: float | None = None,
-    hsv_tols: list[float] | None = None,
+    ss: DiscreteSS, orders: list[int], k_band: float | None = None
 ) -> tuple[list[DiscreteSS], np.ndarray]:
-    """Balanced truncations of ``ss`` from one balancing, at ``orders`` or (when ``orders`` is None) at the orders
-    that keep the HSVs above each of ``hsv_tols`` times the largest; returns (models, HSV)."""
+    """Balanced truncations of ``ss`` at several orders from one balancing; returns (models, HSV)."""
     factors = _balancing_factors(ss, k_band)
-    if orders is None:
-        orders = [hsv_order(factors[1], t) for t in hsv_tols or ()]
     return [_truncate(ss, factors, int(r)) for r in orders], factors[1]
 
 

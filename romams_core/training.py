@@ -28,26 +28,24 @@ from romams_core.aero.protocol import (
 from romams_core.arx import ArxModel, arx_simulate, fit_arx, nrmse
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
+from romams_core.realization import minimal_realization, real_modal_form
 from romams_core.signals import excitation_signals
 from romams_core.statespace import (
-    DIAG_COND_MAX,
     DiscreteSS,
     arx_to_ss,
     balanced_models,
     balanced_truncation,
-    eigenvector_condition,
     refit_output_map,
     reflect_unstable_poles,
 )
 
 __all__ = ["TrainedRom", "TrainingError", "train_rom", "default_n_steps"]
 
-#: Hankel singular value tolerances (fractions of the largest) tried, finest first, for the minimal realization of
-#: an ARX model whose reduction was not accepted (:func:`minimal_arx_realization`).
-MINIMAL_HSV_TOLS = (1e-8, 1e-7, 1e-6, 1e-5, 1e-4)
 #: Largest RMS difference between the minimal and the full realization's validation outputs, as a fraction of the
-#: largest output RMS of the records.
-MINIMAL_MATCH_TOL = 1e-3
+#: largest output RMS of the records (:func:`minimal_arx_realization`; measured 1e-6 on TSD ROMs).
+MINIMAL_MATCH_TOL = 1e-4
+#: Condition number of the modal transformation above which the minimal realization stays in staircase coordinates.
+MODAL_COND_MAX = 1e10
 #: AR-only Tikhonov levels tried, in order, when the plain least-squares ARX fit is unstable.
 _AR_RIDGES = (1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6)
 
@@ -390,29 +388,25 @@ def _auto_reduce(
 
 
 def minimal_arx_realization(full: DiscreteSS, u: _Records, f: np.ndarray, n_train: int) -> DiscreteSS:
-    """The balanced realization of ``full`` without the states it barely drives or sees: plain balanced truncations
-    at the HSV tolerances ``MINIMAL_HSV_TOLS`` (finest first) from one balancing; the first that is stable, whose
-    validation output differs from ``full``'s by at most ``MINIMAL_MATCH_TOL`` of the largest output RMS of ``f``
-    [T, m], and whose eigenvectors are well conditioned (below ``DIAG_COND_MAX``); else the first that is stable and
-    matches; else ``full``.
+    """``full`` without its surplus states: the minimal realization (orthogonal staircase, exact), in real modal
+    form when that transformation is well conditioned (condition < ``MODAL_COND_MAX``). Kept only if it is stable
+    and its validation output differs from ``full``'s by at most ``MINIMAL_MATCH_TOL`` of the largest output RMS
+    of ``f`` [T, m]; else the minimal realization as it is, under the same test; else ``full``.
 
-    An ARX realization carries shift-register states (the delayed inputs and outputs) that are repeated,
-    defective poles at z = 0 with barely or not excited directions: its eigenvectors are numerically singular
-    (condition 1e34 to 1e87 measured on TSD ROMs), so the flutter search cannot diagonalize it and falls back to
-    full eigenvectors at every step. The match is judged on the models' outputs, not on their errors against
-    the records, so the records' noise does not decide which realization is kept. docs/transonic.md 7.9."""
-    cands, _ = balanced_models(full, hsv_tols=list(MINIMAL_HSV_TOLS))
+    An ARX realization carries the delayed inputs as states: repeated, defective poles at z = 0 whose
+    eigenvectors are numerically singular (condition 1e34 to 1e148 measured on TSD ROMs), so the flutter search
+    could not diagonalize it and fell back to full eigenvectors at every step. The match is judged on the models'
+    outputs, not on their errors against the records, so the records' noise does not decide. docs/transonic.md
+    7.9."""
+    minimal = minimal_realization(full)
+    if minimal.n_states >= full.n_states:
+        return full
+    modal, cond = real_modal_form(minimal)
     val = slice(n_train, None)
     ref = u.simulate(full.simulate)[val]
     bound = MINIMAL_MATCH_TOL * float(np.max(np.sqrt(np.mean(f[val] ** 2, axis=0))))
-    first: DiscreteSS | None = None
-    for cand in cands:  # a handful of tolerances
-        if cand.n_states >= full.n_states or not cand.is_stable():
-            continue
-        diff = float(np.max(np.sqrt(np.mean((u.simulate(cand.simulate)[val] - ref) ** 2, axis=0))))
-        if diff > bound:
-            continue
-        if eigenvector_condition(cand.A) < DIAG_COND_MAX:
+    for cand in (modal, minimal) if cond < MODAL_COND_MAX else (minimal,):  # two candidates at most
+        if cand.is_stable() and float(np.max(np.sqrt(np.mean((u.simulate(cand.simulate)[val] - ref) ** 2,
+                                                                  axis=0)))) <= bound:
             return cand
-        first = first or cand
-    return first or full
+    return full

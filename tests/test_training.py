@@ -157,27 +157,28 @@ def test_an_unreduced_arx_rom_keeps_its_minimal_balanced_realization():
     assert minimal_arx_realization(full, rec, noisy, 300).n_states == 1
 
 
-def test_the_minimal_realization_drops_barely_excited_states_whose_eigenvectors_are_ill_conditioned():
-    """A first-order system with a 3e-7 input tail 9 steps back: truncation at HSV 1e-8 keeps the tail's
-    near-defective shift states (eigenvector condition 1e7, above DIAG_COND_MAX), so the next tolerance (1e-7) is
-    taken: 3 states, well conditioned, its transfer matrix within 1e-5 of the largest entry of the full one's."""
+def test_a_mimo_arx_rom_keeps_its_minimal_realization_in_modal_form():
+    """A stable 3-output ARX 4/4 model (21 states, 9 of them surplus input delays) goes to its na * p = 12-state
+    minimal realization in real modal form: same transfer matrix to 1e-9 of the largest entry, eigenvector
+    condition below DIAG_COND_MAX (the full realization's is above 1e12), the same poles."""
     from romams_core.arx import ArxModel
-    from romams_core.statespace import DIAG_COND_MAX, arx_to_ss, balanced_truncation, eigenvector_condition
+    from romams_core.realization import minimal_realization
+    from romams_core.statespace import DIAG_COND_MAX, arx_to_ss, eigenvector_condition
     from romams_core.training import _Records, minimal_arx_realization
 
-    a = np.zeros((1, 1, 1))
-    a[0] = 0.8
-    b = np.zeros((10, 1, 1))
-    b[0], b[1], b[9] = 1.0, 0.5, 3e-7
-    full = arx_to_ss(ArxModel(a=a, b=b, dt_star=0.1))
-    fine, _ = balanced_truncation(full, hsv_tol=1e-8)
-    assert fine.n_states == 9 and eigenvector_condition(fine.A) > DIAG_COND_MAX  # the finest tolerance is refused
-    rng = np.random.default_rng(3)
-    rec = _Records(rng.standard_normal((300, 1)), rng.standard_normal((200, 1)))
+    rng = np.random.default_rng(5)
+    full = arx_to_ss(ArxModel(a=0.15 * rng.standard_normal((4, 3, 3)), b=rng.standard_normal((4, 3, 3)), dt_star=0.1))
+    assert full.n_states == 21 and full.is_stable() and eigenvector_condition(full.A) > 1e12
+    assert minimal_realization(full).n_states == 12
+    rec = _Records(rng.standard_normal((300, 3)), rng.standard_normal((200, 3)), continued=False)
     red = minimal_arx_realization(full, rec, rec.simulate(full.simulate), 300)
-    assert red.n_states == 3 and red.is_stable() and eigenvector_condition(red.A) < 10.0
+    assert red.n_states == 12 and eigenvector_condition(red.A) < min(DIAG_COND_MAX, 100.0)
+    assert np.count_nonzero(np.abs(red.A) > 1e-12) <= 12 + 2 * 6  # block diagonal: 1x1 and 2x2 blocks
     ks = np.linspace(0.0, 1.0, 21)
     h_full = full.freqresp(ks)
-    assert np.max(np.abs(red.freqresp(ks) - h_full)) < 1e-5 * np.max(np.abs(h_full))
-    lone = arx_to_ss(ArxModel(a=a, b=b[:1], dt_star=0.1))  # already minimal (one state): kept as it is
-    assert minimal_arx_realization(lone, rec, rec.simulate(lone.simulate), 300) is lone
+    assert np.max(np.abs(red.freqresp(ks) - h_full)) < 1e-9 * np.max(np.abs(h_full))
+    z_full = np.linalg.eigvals(full.A)
+    z_red = np.linalg.eigvals(red.A)
+    assert np.all(np.min(np.abs(z_red[:, None] - z_full[None, :]), axis=1) < 1e-6)
+    lone = arx_to_ss(ArxModel(a=0.15 * rng.standard_normal((1, 3, 3)), b=rng.standard_normal((1, 3, 3)), dt_star=0.1))
+    assert minimal_arx_realization(lone, rec, rec.simulate(lone.simulate), 300) is lone  # already minimal
