@@ -150,11 +150,16 @@ class Trainer:
         out: list[Any] = [_read_rom(p) if p is not None and p.exists() else None for p in paths]
         todo = [j for j, r in enumerate(out) if r is None]
         if todo:
+            marks = [p.with_suffix(".refused") for p in paths if p is not None]  # a refusal is deterministic
             try:
+                if len(todo) == 1 and marks and marks[todo[0]].exists():
+                    raise TrainingError(marks[todo[0]].read_text())
                 (trained,) = train_shape_sets(mesh, [shapes], [float(machs[j]) for j in todo], ident, self.processes)
             except TrainingError as exc:  # an own-mode (ROM-PMS) reference just above the tolerance: say so, relax
                 if "nrmse_tol" in (ident.get("options") or {}) or "validation NRMSE" not in str(exc):
                     raise
+                if len(todo) == 1 and marks:
+                    marks[todo[0]].write_text(str(exc))
                 relaxed = {**ident, "options": {**dict(ident.get("options") or {}), "nrmse_tol": RELAXED_NRMSE_TOL}}
                 self.notes.append(f"{len(todo)} ROM(s) at M {[float(machs[j]) for j in todo]} of a {shapes.shape[1]}-"
                                   f"shape set: {exc}; retrained with nrmse_tol {RELAXED_NRMSE_TOL:g}")
