@@ -39,7 +39,7 @@ from romams_core.statespace import (
     reflect_unstable_poles,
 )
 
-__all__ = ["TrainedRom", "TrainingError", "train_rom", "default_n_steps"]
+__all__ = ["TrainedRom", "TrainingError", "train_rom", "default_n_steps", "with_minimal_realization"]
 
 #: Largest RMS difference between the minimal and the full realization's validation outputs, as a fraction of the
 #: largest output RMS of the records (:func:`minimal_arx_realization`; measured 1e-6 on TSD ROMs).
@@ -410,3 +410,17 @@ def minimal_arx_realization(full: DiscreteSS, u: _Records, f: np.ndarray, n_trai
                                                                   axis=0)))) <= bound:
             return cand
     return full
+
+
+def with_minimal_realization(rom: TrainedRom) -> TrainedRom:
+    """``rom`` with :func:`minimal_arx_realization` of its model when it still holds the full ARX realization (ROMs
+    stored before 2026-12-04, whose singular eigenvectors made the flutter search lose or mislabel crossings,
+    docs/transonic.md 7.9); ``rom`` itself otherwise (reduced, stabilized, anchored or already minimal)."""
+    if rom.anchor_k is not None or rom.ss.n_states != rom.n_states_full or rom.ss.n_states == 0:
+        return rom
+    full = arx_to_ss(rom.arx, rom.dt_star)
+    if full.A.shape != rom.ss.A.shape or not np.array_equal(full.A, rom.ss.A):  # not the plain ARX realization
+        return rom
+    rec = _Records(rom.signals_train, rom.signals_validation, continued=rom.solver != "tsd")
+    ss = minimal_arx_realization(rom.ss, rec, np.vstack([rom.gac_train, rom.gac_validation]), len(rom.signals_train))
+    return rom if ss is rom.ss else dataclasses.replace(rom, ss=ss, spectral_radius=float(ss.spectral_radius()))

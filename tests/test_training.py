@@ -182,3 +182,30 @@ def test_a_mimo_arx_rom_keeps_its_minimal_realization_in_modal_form():
     assert np.all(np.min(np.abs(z_red[:, None] - z_full[None, :]), axis=1) < 1e-6)
     lone = arx_to_ss(ArxModel(a=0.15 * rng.standard_normal((1, 3, 3)), b=rng.standard_normal((1, 3, 3)), dt_star=0.1))
     assert minimal_arx_realization(lone, rec, rec.simulate(lone.simulate), 300) is lone  # already minimal
+
+
+def test_a_rom_stored_with_its_full_arx_realization_is_loaded_with_its_minimal_one(tmp_path):
+    """A real (UVLM) ARX ROM kept unreduced holds the full ARX realization, 3 x (6 + 5) = 33 states with singular
+    eigenvectors; ``with_minimal_realization`` (applied when ROMs are loaded from the store) gives its na p = 18
+    states in modal form with the same transfer matrix (1e-6 of the largest entry) and the same validation output;
+    a ROM already minimal, or reduced, comes back as it is."""
+    from romams.persistence import open_store
+    from romams.settings import Settings
+    from romams_core.statespace import DIAG_COND_MAX, eigenvector_condition
+    from romams_core.training import with_minimal_realization
+
+    mesh, shapes = _synthetic()
+    rom = train_rom(mesh, shapes, 0.6, UvlmSolver(wake_chords=10.0), na=6, nb=6, n_steps=1200, reduce_order=None)
+    assert rom.ss.n_states == rom.n_states_full == 33 and eigenvector_condition(rom.ss.A) > DIAG_COND_MAX
+    new = with_minimal_realization(rom)
+    assert new.ss.n_states == 18 and eigenvector_condition(new.ss.A) < 1e3 and new.spectral_radius < 1.0
+    ks = np.linspace(0.0, rom.k_max, 31)
+    h = rom.ss.freqresp(ks)
+    assert np.max(np.abs(new.ss.freqresp(ks) - h)) < 1e-6 * np.max(np.abs(h))
+    assert with_minimal_realization(new) is new
+    store = open_store(Settings(data_dir=tmp_path / "data"))
+    wid = store.wings.ensure(template("cropped-delta"))
+    bid = store.bases.save(wid, build_basis_for_wing(template("cropped-delta"), samples=4, modes=2), {"samples": 4})
+    rid = store.roms.save(wid, bid, rom, {"solver": "uvlm", "na": 6, "nb": 6, "mach": 0.6})
+    loaded = store.roms.load(rid)
+    assert loaded.ss.n_states == 18 and np.allclose(loaded.ss.freqresp(ks), new.ss.freqresp(ks), rtol=0, atol=1e-12)
