@@ -34,3 +34,15 @@ def test_warning_names_the_modes_beyond_the_validated_accuracy():
     assert out["warning"].startswith("modes [2] fit the basis with MAC < 0.998889")
     # the default basis: within its validated accuracy, no warning
     assert summarize(_result([0.99999, 0.99995, 0.99992]), _models(0.9999))["warning"] is None
+
+
+def test_the_evaluation_key_changes_with_the_evaluation_version(monkeypatch):
+    """Results cached before a change of how stored models are evaluated (EVALUATION_VERSION) are not served again:
+    the same inputs give another key under another version, and the same key under the same one."""
+    from romams.services import evaluation as ev
+
+    args = (1, 2, [3, 4], {"sweep": "constant-speed"}, [0.5, 0.25])
+    key = ev.evaluation_key(*args)
+    assert ev.evaluation_key(*args) == key
+    monkeypatch.setattr(ev, "EVALUATION_VERSION", ev.EVALUATION_VERSION - 1)
+    assert ev.evaluation_key(*args) != key

@@ -205,10 +205,16 @@ def pms_summary(models: Models, modal: Any, own_roms: Mapping[float, tuple[int, 
     return summarize(result, pms, condition, method="rom-pms", external=external), result
 
 
+#: Bumped when the evaluation of stored models changes. 2 (2026-12-04): ARX ROMs stored with their full realization
+#: are loaded with their minimal one (docs/transonic.md 7.9); results computed on the full one may be wrong.
+EVALUATION_VERSION = 2
+
+
 def evaluation_key(wing_id: int, basis_id: int, rom_ids: Any, condition: Mapping[str, Any], design: Any) -> str:
     """Content hash of one design's evaluation (same inputs, same summary): the API's stored-evaluation lookup and
-    the workers' result cache use it."""
-    return content_hash("flutter", wing_id, basis_id, rom_ids, dict(condition), design)
+    the workers' result cache use it. ``EVALUATION_VERSION`` is part of it, so results stored before a change of
+    how stored models are evaluated are not served again."""
+    return content_hash("flutter", EVALUATION_VERSION, wing_id, basis_id, rom_ids, dict(condition), design)
 
 
 def fit_error_estimate(min_mac: float) -> float:
