@@ -59,7 +59,7 @@ from romams.services.evaluation import (  # noqa: E402
 from romams.services.training import SOLVERS, rom_identity  # noqa: E402
 from romams_core.basis import Basis, build_basis_for_wing, mac, snapshot  # noqa: E402
 from romams_core.mesh import standard_mesh  # noqa: E402
-from romams_core.training import TrainedRom, TrainingError, with_minimal_realization  # noqa: E402
+from romams_core.training import TrainingError, with_minimal_realization  # noqa: E402
 from romams_core.wing import WingDefinition, cropped_delta  # noqa: E402
 
 EX = load_example("optimize_cropped_delta")  # the DE, the paper's settings and Table 6/8 values
@@ -186,8 +186,7 @@ def _write_rom(path: Path, rom: Any) -> None:
 def _read_rom(path: Path) -> Any:
     """A ROM stored by :func:`_write_rom` (an ARX ROM stored with its full realization: with its minimal one)."""
     with np.load(path, allow_pickle=False) as f:
-        rom = serialize.loads(json.loads(str(f["meta"])), f["blob"].tobytes())
-    return with_minimal_realization(rom) if isinstance(rom, TrainedRom) else rom
+        return with_minimal_realization(serialize.loads(json.loads(str(f["meta"])), f["blob"].tobytes()))
 def build_models(wing: WingDefinition, machs: Sequence[float], ident: Mapping[str, Any], samples: int = 25,
                  mac_threshold: float = 0.9999, max_basis: int = 12, seed: int = 0, trainer: Trainer = Trainer()
                  ) -> tuple[Models, dict[str, Any]]:

@@ -32,6 +32,7 @@ __all__ = [
     "tustin_matrices",
     "spectral_radius",
     "eigenvector_condition",
+    "vectors_condition",
     "diagonally_scaled",
     "DIAG_COND_MAX",
     "reflect_unstable_poles",
@@ -150,12 +151,16 @@ class ContinuousSS:
 DIAG_COND_MAX = 1e6
 
 
-def eigenvector_condition(a: np.ndarray) -> float:
-    """2-norm condition number of the eigenvector matrix of ``a`` (dimensionless; inf when not finite, 1 if empty)."""
-    if not a.size:
+def vectors_condition(w: np.ndarray) -> float:
+    """2-norm condition number of an eigenvector matrix ``w`` (dimensionless; inf when not finite, 1 if empty)."""
+    if not w.size:
         return 1.0
-    w = np.linalg.eig(a)[1]
     return float(np.linalg.cond(w)) if np.all(np.isfinite(w)) else math.inf
+
+
+def eigenvector_condition(a: np.ndarray) -> float:
+    """:func:`vectors_condition` of the eigenvectors of ``a``."""
+    return vectors_condition(np.linalg.eig(a)[1]) if a.size else 1.0
 
 
 def spectral_radius(a: np.ndarray) -> float:

@@ -13,6 +13,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -412,11 +413,13 @@ def minimal_arx_realization(full: DiscreteSS, u: _Records, f: np.ndarray, n_trai
     return full
 
 
-def with_minimal_realization(rom: TrainedRom) -> TrainedRom:
-    """``rom`` with :func:`minimal_arx_realization` of its model when it still holds the full ARX realization (ROMs
-    stored before 2026-12-04, whose singular eigenvectors made the flutter search lose or mislabel crossings,
-    docs/transonic.md 7.9); ``rom`` itself otherwise (reduced, stabilized, anchored or already minimal)."""
-    if rom.anchor_k is not None or rom.ss.n_states != rom.n_states_full or rom.ss.n_states == 0:
+def with_minimal_realization(rom: Any) -> Any:
+    """A TrainedRom with :func:`minimal_arx_realization` of its model when it still holds the full ARX realization
+    (ROMs stored before 2026-12-04, whose singular eigenvectors made the flutter search lose or mislabel crossings,
+    docs/transonic.md 7.9); ``rom`` itself otherwise (another kind of ROM; reduced, stabilized, anchored or already
+    minimal)."""
+    if (not isinstance(rom, TrainedRom) or rom.anchor_k is not None or rom.ss.n_states != rom.n_states_full
+            or rom.ss.n_states == 0):
         return rom
     full = arx_to_ss(rom.arx, rom.dt_star)
     if full.A.shape != rom.ss.A.shape or not np.array_equal(full.A, rom.ss.A):  # not the plain ARX realization

@@ -13,7 +13,7 @@ from romams import serialize
 from romams.persistence.codec import iso, rom_key, small_summary
 from romams.persistence.models import RomRow
 from romams.persistence.repository import Repository
-from romams_core.training import TrainedRom, with_minimal_realization
+from romams_core.training import with_minimal_realization
 
 
 class RomRepository(Repository):
@@ -38,8 +38,7 @@ class RomRepository(Repository):
     def load(self, rom_id: int) -> Any:
         """The TrainedRom stored under ``rom_id`` (KeyError if absent); an ARX ROM stored with its full realization
         comes back with its minimal one (``romams_core.training.with_minimal_realization``)."""
-        rom = self._load_object(RomRow, rom_id, "rom")
-        return with_minimal_realization(rom) if isinstance(rom, TrainedRom) else rom
+        return with_minimal_realization(self._load_object(RomRow, rom_id, "rom"))
 
     def find_id(self, wing_id: int, basis_id: int, mach: float, params: Mapping[str, Any]) -> int | None:
         """Id of the ROM trained with exactly these settings, or None."""

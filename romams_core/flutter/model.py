@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from romams_core.errors import InputError
-from romams_core.statespace import DIAG_COND_MAX, tustin_lu, tustin_matrices
+from romams_core.statespace import DIAG_COND_MAX, tustin_lu, tustin_matrices, vectors_condition
 
 from .inputs import aero_matrices
 
@@ -59,7 +59,7 @@ def _continuous_prep(a: np.ndarray) -> AeroPrep:
     if np.max(lam.real) >= 0.0:
         raise InputError("aero.A", f"unstable aerodynamic model (pole with real part {np.max(lam.real):.6g} >= 0)")
     wi = None
-    if np.all(np.isfinite(w)) and np.linalg.cond(w) < DIAG_COND_MAX:
+    if vectors_condition(w) < DIAG_COND_MAX:
         wi, w = np.linalg.inv(w).astype(complex), w.astype(complex)
     return AeroPrep(float(np.max(np.abs(lam))), None, a.copy(), lam if wi is not None else None,
                     w if wi is not None else None, wi, lam)
@@ -92,7 +92,7 @@ def aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> AeroPrep:
             abar = tustin_matrices(a, np.zeros((na, 0)), np.zeros((0, na)), np.zeros((0, 0)), dt_star, lu=lu)[0]
             lam, w = np.linalg.eig(abar)
             poles = lam.astype(complex)
-            if np.all(np.isfinite(w)) and np.linalg.cond(w) < DIAG_COND_MAX:
+            if vectors_condition(w) < DIAG_COND_MAX:
                 lam, wi = lam.astype(complex), np.linalg.inv(w).astype(complex)
                 w = w.astype(complex)
             else:
