@@ -131,8 +131,8 @@ def test_rom_ams_reproduces_direct_solver_for_real_modes(cropped_delta):
         assert np.all(nrmse(direct, ams) < 0.02)
 
 
-def test_an_unreduced_arx_rom_keeps_its_minimal_balanced_realization():
-    """An ARX ROM whose reduction was not accepted keeps the minimal balanced realization of its ARX model: the
+def test_an_unreduced_arx_rom_keeps_its_minimal_realization():
+    """An ARX ROM whose reduction was not accepted keeps the minimal realization of its ARX model: the
     shift-register states (defective poles at z = 0) go, the transfer matrix and the validation error stay, and the
     eigenvectors become well conditioned (the flutter search's fast path; docs/transonic.md 7.9)."""
     from romams_core.arx import ArxModel
