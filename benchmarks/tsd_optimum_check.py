@@ -1,0 +1,120 @@
+"""The TSD's own flutter point of the paper case's optimum against its ROM-AMS and ROM-PMS (prints JSON).
+
+Table 8 of the full TSD paper case (docs/optimization.md 3a) has ROM-AMS 7 / 76 / 5 % above ROM-PMS at M 0.87 /
+0.91 / 0.95. Which ROM is right is decided here by the TSD itself, at one Mach per call:
+- the paper case's basis ROM and the optimum's own-mode ROM, trained with the paper case's identity and kept in
+  ``--rom-dir`` (``paper_case.Trainer``: a later ``benchmarks.paper_case --rom-dir`` run reads the same files);
+- direct multi-tone TSD runs of each of the optimum's modes at ``--k`` (``anchors.harmonic_anchors``, one record per
+  mode, side by side), the full-order transfer matrix at those reduced frequencies (on c_ref / 2);
+- ``tsd_ams_gap.analyse``: each ROM's p-k point as trained and with its GAF corrected to the direct columns. With
+  anchors that bracket the flutter k, the corrected points are the TSD's own flutter point; both ROMs must land on
+  it. The product's state-space search on both ROMs (the Table 8 values) is reported next to them.
+
+Three jobs (basis ROM, own-mode ROM, direct runs) in ``--processes`` processes; about 30 min at one Mach on 2 cores.
+
+    python -m benchmarks.tsd_optimum_check --mach 0.91 [--k 0.035 0.05 0.07] [--x X1 .. X7] --rom-dir DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks import paper_case as pc
+from benchmarks.accuracy_rom_ams import pct_error
+from benchmarks.tsd_ams_gap import analyse
+from romams.services.evaluation import Models, structure_modal
+from romams.services.training import rom_identity
+from romams_core.anchors import harmonic_anchors
+from romams_core.basis import build_basis_for_wing, project
+from romams_core.mesh import standard_mesh
+from romams_core.training_tsd import make_tsd_solver
+from romams_core.wing import cropped_delta
+
+#: the optimum of the full TSD paper case (150 generations, docs/optimization.md 3a), in the variables' own units
+TSD_OPTIMUM = (0.1774, 0.6427, 0.8254, 0.0657, 1.997, 1.978, 0.5323)
+SOLVER_OPTIONS = ("thickness_form", "thickness_to_chord", "grid_scale", "coefficients")
+
+
+def setup(x: tuple[float, ...]) -> tuple[Models, Any, dict[str, Any]]:
+    """(models without ROMs, the design's modal result, ROM identity) of the paper case (eccentric beam)."""
+    wing = cropped_delta(beam_placement="eccentric")
+    basis = build_basis_for_wing(wing, samples=25, modes=4, mac_threshold=0.9999, max_basis=12, seed=0)
+    models = Models(0, wing, standard_mesh(wing.planform), 0, basis, {})
+    return models, structure_modal(models, list(x)), rom_identity("tsd", wing=wing)
+
+
+def _job(args: tuple[str, tuple[float, ...], float, tuple[float, ...], Path]) -> tuple[str, Any, float]:
+    """Worker body: "basis" | "modes" trains (or reads) that ROM into the ROM directory; "direct" runs the modes."""
+    kind, x, mach, ks, rom_dir = args
+    t0 = time.perf_counter()
+    models, modal, ident = setup(x)
+    if kind == "direct":  # kept next to the ROMs: a rerun (other analysis, more Machs) reads it
+        path = rom_dir / f"direct-M{mach:g}-k{'-'.join(f'{k:g}' for k in ks)}-x{'-'.join(f'{v:g}' for v in x)}.npy"
+        if path.exists():
+            out = np.load(path)
+        else:
+            options = {k: v for k, v in ident["options"].items() if k in SOLVER_OPTIONS}
+            out = harmonic_anchors(make_tsd_solver(**options), models.mesh, modal.shapes, mach, np.asarray(ks))
+            rom_dir.mkdir(parents=True, exist_ok=True)
+            np.save(path, out)
+    else:
+        shapes = models.basis.shapes if kind == "basis" else modal.shapes
+        pc.Trainer(1, rom_dir).roms(models.mesh, shapes, [mach], ident)
+        out = None
+    return kind, out, time.perf_counter() - t0
+
+
+def run(mach: float, ks: tuple[float, ...], x: tuple[float, ...], rom_dir: Path, processes: int = 2
+        ) -> dict[str, Any]:
+    """Train / read both ROMs, run the direct columns, compare (module docstring); a JSON-able dict."""
+    t0 = time.perf_counter()
+    jobs = [(kind, x, mach, ks, rom_dir) for kind in ("basis", "direct", "modes")]
+    with get_context("spawn").Pool(processes) as pool:
+        done = {kind: (out, sec) for kind, out, sec in pool.imap_unordered(_job, jobs)}
+    models, modal, ident = setup(x)
+    trainer = pc.Trainer(1, rom_dir)
+    (rom_b,) = trainer.roms(models.mesh, models.basis.shapes, [mach], ident)
+    (rom_p,) = trainer.roms(models.mesh, modal.shapes, [mach], ident)
+    models = Models(0, models.wing, models.mesh, 0, models.basis, {mach: (0, rom_b)})
+    ams, pms, _, _ = pc.ams_and_pms(models, list(x), ident, pc.Memo(), trainer)
+    (table8,) = pc.comparison_rows(ams, pms)
+    gamma = project(models.basis.shapes, modal.shapes).gamma
+    direct = done["direct"][0]
+    res: dict[str, Any] = {
+        "mach": mach, "k": list(ks), "x": list(x), "rom_identity": ident, "c_ref": models.mesh.c_ref,
+        "omega": [float(w) for w in modal.omega], "n_basis": int(models.basis.n_basis),
+        "states": {"basis": int(rom_b.ss.n_states), "modes": int(rom_p.ss.n_states)},
+        "validation_nrmse_pct": {"basis": [100 * float(v) for v in rom_b.validation_nrmse],
+                                 "modes": [100 * float(v) for v in rom_p.validation_nrmse]},
+        "state_space": table8, "seconds": {kind: sec for kind, (_, sec) in done.items()}}
+    res.update(analyse(rom_b, rom_p, gamma, modal.omega, models.mesh.c_ref, mach, models.wing.modal_damping,
+                       np.asarray(ks), direct))
+    fom = res["flutter"]["pms_corrected"]["v_eas"]
+    res["flutter"]["state_space_ams_vs_tsd_pct"] = pct_error(table8["v_eas_rom_ams"], fom)
+    res["flutter"]["state_space_pms_vs_tsd_pct"] = pct_error(table8["v_eas_rom_pms"], fom)
+    res["wall_s"] = time.perf_counter() - t0
+    return res
+
+
+def main() -> None:
+    """CLI entry point."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--mach", type=float, default=0.91)
+    ap.add_argument("--k", type=float, nargs="+", default=[0.035, 0.05, 0.07],
+                    help="direct TSD tones (reduced on c_ref / 2; bracket both ROMs' flutter k)")
+    ap.add_argument("--x", type=float, nargs=7, default=list(TSD_OPTIMUM), help="the design (own units)")
+    ap.add_argument("--rom-dir", type=Path, required=True, help="the ROMs, kept and reused (paper_case --rom-dir)")
+    ap.add_argument("--processes", type=int, default=2)
+    a = ap.parse_args()
+    print(json.dumps(run(a.mach, tuple(a.k), tuple(a.x), a.rom_dir, a.processes)))
+
+
+if __name__ == "__main__":
+    main()
