@@ -31,12 +31,19 @@ LINEARITY_TOL = 0.02
 
 
 #: default ARX orders (na, nb) of a TSD ROM. Measured on 3 cropped-delta designs (docs/transonic.md 7.2): 8/8 puts
-#: ROM-AMS 1.4-24 % below ROM-PMS (the safe side); 12/12 up to 7.6 % above it at M 0.95. Against direct harmonic
-#: TSD runs (benchmarks.tsd_ams_gap) that is scatter of the 8-shape basis ROM's low-k GAF: a real 14/14 training
-#: was 7.8 % low on one design where a 14/14 refit of other records was within 0.2 %, and no order 8-16 or input
-#: spectrum (low_k_corner) held all designs within 2 %. 8/8 stays: it was on the safe side wherever measured. The
-#: cure is ``anchor_k`` (direct harmonic runs; ROM-AMS within 0.16 % of the TSD points at M 0.95, transonic.md 7.7)
+#: ROM-AMS 1.4-24 % below ROM-PMS; 12/12 up to 7.6 % above it at M 0.95. Against direct harmonic TSD runs
+#: (benchmarks.tsd_ams_gap) that is scatter of the basis ROM's low-k GAF, and no order 8-16 or input spectrum
+#: (low_k_corner) held all designs within 2 %. On the paper case's TSD optimum at M 0.95 (7.10) the 8/8 basis ROM is
+#: 3.8 % above the TSD's own flutter point and refits at 8-14 are 3.4-6.1 % above it: no order is safe everywhere.
+#: The cure is ``anchor_k`` (direct harmonic runs; ROM-AMS within 0.16 % of the TSD points at M 0.95, 7.7)
 TSD_ORDERS = (8, 8)
+
+#: the warning an unanchored TSD ROM carries into every flutter result (measured on the paper case's TSD optimum,
+#: docs/transonic.md 7.10: the trained ROMs 43 % low to 3.8 % high, refits of their records up to 6.1 % high)
+UNANCHORED_WARNING = ("not anchored: the low-k GAF (k < 0.1 on c_ref / 2) of a plain TSD ROM scatters with the ARX "
+                      "identification (flutter speeds measured from 43 % low to 6 % high against the TSD's own "
+                      "points, docs/transonic.md 7.10); for flutter at low k train with anchor_k bracketing the "
+                      "flutter k")
 
 #: further ARX orders tried on the same records when the requested ones miss nrmse_tol (a refit costs seconds; the
 #: TSD run minutes): the cropped delta's own modes at M 0.87 missed 5 % with 8/8 on one output (5.97 %)
@@ -129,7 +136,7 @@ def train_tsd_rom(
     tones (``anchors.harmonic_anchors``, one record per shape side by side) and the ROM gets the parallel lag
     correction that reproduces them exactly (``anchors.anchored``; 3 m more states for 2 anchors). Costs about
     2.8 training runs for 8 shapes; pins the low-k GAF that decides transonic ROM-AMS flutter (docs/transonic.md
-    7.7).
+    7.7). Without it the ROM carries ``UNANCHORED_WARNING`` (7.10).
     """
     shapes = np.asarray(shapes, dtype=float)
     m = shapes.shape[1] if shapes.ndim == 2 else 1
@@ -160,6 +167,8 @@ def train_tsd_rom(
         gaf = harmonic_anchors(solver, mesh, shapes, mach, k, dt_star, displacement_fraction,
                                _scaled(progress, share, 1.0 - share))
         _anchor(rom, k, gaf)
+    else:
+        rom.warnings.append(UNANCHORED_WARNING)
     if linearity_check:
         half = solver.simulate(mesh, shapes, 0.5 * rom.signals_train, mach, dt_star)
         full = rom.gac_train

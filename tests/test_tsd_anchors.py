@@ -41,6 +41,8 @@ def test_anchored_tsd_rom_reproduces_direct_harmonic_runs():
     assert rom.ss.n_states == plain.ss.n_states + 3 * 2
     assert np.max(rom.validation_nrmse) < np.max(plain.validation_nrmse) + 0.01
     assert any("anchored" in w for w in rom.warnings) and rom.summary()["anchor_k"] == [0.1, 0.2]
+    assert not any(w.startswith("not anchored") for w in rom.warnings)
+    assert any(w.startswith("not anchored") for w in plain.warnings)
     back = loads(*dumps(rom))
     np.testing.assert_array_equal(back.anchor_gaf, gaf)
     with pytest.raises(TrainingError, match="anchored at k"):  # anchors that contradict the records
