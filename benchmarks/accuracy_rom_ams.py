@@ -17,8 +17,9 @@ errors against it are reported (rows: ``v_fom``, ``v_error_ams_fom_pct``, ``v_er
         [--solver dlm|uvlm|tsd] [--na NA --nb NB] [--grid-scale G] [--anchor-k K ...] [--anchor-pms]
         [--processes P] [--json]
 
-``--anchor-k`` (tsd): the basis ROMs are trained with the option ``anchor_k`` (direct harmonic runs of each basis
-shape at those k, ``romams_core.anchors``); the ROM-PMS ROMs too with ``--anchor-pms``, else plain.
+``--anchor-k`` (tsd): the basis ROMs are trained with the option ``anchor_k`` (direct runs of each basis shape,
+``romams_core.anchors``; "none": plain ROMs, as every TSD table measured before 2026-12-04); the ROM-PMS ROMs too
+with ``--anchor-pms``, else with the training's default anchors.
 """
 
 from __future__ import annotations
@@ -68,6 +69,21 @@ def _worst_nrmse(rom: Any) -> float | None:
 def pct_error(a: float | None, ref: float | None) -> float | None:
     """100 (a / ref - 1), or None when either is missing."""
     return None if a is None or ref is None else 100.0 * (a / ref - 1.0)
+
+
+def anchor_value(text: str) -> float | None:
+    """argparse type of ``--anchor-k``: a reduced frequency, or "none" (a plain TSD ROM)."""
+    return None if text.strip().lower() == "none" else float(text)
+
+
+def anchor_options(values: list[float | None] | None) -> dict[str, Any]:
+    """TSD training options of ``--anchor-k``: {} (not given: the product's default anchors), {"anchor_k": None}
+    ("none": plain ROMs, as every TSD number measured before 2026-12-04), or the listed k."""
+    if values is None:
+        return {}
+    if any(v is None for v in values):
+        return {"anchor_k": None}
+    return {"anchor_k": [float(v) for v in values if v is not None]}
 
 
 def run(n_designs: int = 20, machs: tuple[float, ...] = PAPER_MACHS, samples: int = 25, mac_threshold: float = 0.9999,
@@ -175,9 +191,11 @@ def main() -> None:
     ap.add_argument("--grid-scale", type=float, default=None, help="tsd: grid cell counts times this")
     ap.add_argument("--na", type=int, default=None, help="ARX output order (default: the solver's)")
     ap.add_argument("--nb", type=int, default=None, help="ARX input order (default: the solver's)")
-    ap.add_argument("--anchor-k", type=float, nargs="+", default=None,
-                    help="tsd: anchor the basis ROMs to direct harmonic runs at these reduced frequencies")
-    ap.add_argument("--anchor-pms", action="store_true", help="tsd: anchor the ROM-PMS ROMs too")
+    ap.add_argument("--anchor-k", type=anchor_value, nargs="+", default=None,
+                    help="tsd: anchor the basis ROMs at these reduced frequencies ('none': plain ROMs; default: the "
+                         "training's default anchors)")
+    ap.add_argument("--anchor-pms", action="store_true", help="tsd: the ROM-PMS ROMs get --anchor-k too (else the "
+                    "training's default)")
     ap.add_argument("--processes", type=int, default=None, help="training processes (default: CPU count)")
     ap.add_argument("--json", action="store_true", help="print the full JSON (default: summary only)")
     a = ap.parse_args()
@@ -185,7 +203,7 @@ def main() -> None:
     wing = template("cropped-delta")
     pms_ident = rom_identity(a.solver, a.na, a.nb, options=options, wing=wing)
     ident = pms_ident if a.anchor_k is None else rom_identity(a.solver, a.na, a.nb, wing=wing,
-                                                              options={**options, "anchor_k": list(a.anchor_k)})
+                                                              options={**options, **anchor_options(a.anchor_k)})
     res = run(a.designs, tuple(a.machs), sweep=a.sweep, fom=a.fom, ident=ident, processes=a.processes,
               pms_ident=ident if a.anchor_pms else pms_ident)
     if not a.json:

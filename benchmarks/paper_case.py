@@ -46,7 +46,7 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from benchmarks.accuracy_rom_ams import pct_error  # noqa: E402
+from benchmarks.accuracy_rom_ams import anchor_options, anchor_value, pct_error  # noqa: E402
 from benchmarks.run import load_example  # noqa: E402
 from romams import serialize  # noqa: E402
 from romams.pipeline import train_shape_sets  # noqa: E402
@@ -463,15 +463,16 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--processes", type=int, default=1, help="trainings in this many processes (the Machs)")
     ap.add_argument("--rom-dir", type=Path, default=None, metavar="DIR",
                     help="keep every trained ROM in DIR and reuse the stored ones (same mesh, shapes, Mach, identity)")
-    ap.add_argument("--anchor-k", type=float, nargs="+", default=None,
-                    help="tsd: the training option anchor_k (direct harmonic runs at these k, docs/transonic.md 7.7)")
+    ap.add_argument("--anchor-k", type=anchor_value, nargs="+", default=None,
+                    help="tsd: the training option anchor_k at these k ('none': plain ROMs, as measured before "
+                         "2026-12-04; default: the training's default anchors, docs/transonic.md 7.11)")
     ap.add_argument("--plot", type=Path, default=None, metavar="DIR", help="write the figures (PNG) into DIR")
     ap.add_argument("--json", action="store_true", help="one-line JSON")
     a = ap.parse_args(argv)
     gens = a.generations if a.generations is not None else (QUICK_GENERATIONS if a.quick else EX.PAPER_GENERATIONS)
     res = run(solver=a.solver, generations=gens, popsize=a.popsize, seed=a.seed, max_basis=a.max_basis,
               beam_placement=a.beam_placement, plot_dir=a.plot, processes=a.processes, rom_dir=a.rom_dir,
-              train_options=None if a.anchor_k is None else {"anchor_k": list(a.anchor_k)})
+              train_options=anchor_options(a.anchor_k) or None)
     res["quick"] = bool(a.quick)
     print(json.dumps(res, indent=None if a.json else 1))
 

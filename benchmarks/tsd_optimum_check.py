@@ -13,6 +13,9 @@ Table 8 of the full TSD paper case (docs/optimization.md 3a) has ROM-AMS 7 / 76 
 Three jobs (basis ROM, own-mode ROM, direct runs) in ``--processes`` processes; 23-25 min at one Mach on 2 cores.
 
     python -m benchmarks.tsd_optimum_check --mach 0.91 [--k 0.035 0.05 0.07] [--x X1 .. X7] --rom-dir DIR
+
+``--reference V_EAS`` trains (or reads) only the basis ROM, with the product's identity (default anchors since
+2026-12-04), and gives its ROM-AMS flutter speed against that known TSD point (7.10: 132.38 m/s at M 0.95).
 """
 
 from __future__ import annotations
@@ -27,12 +30,13 @@ from typing import Any
 import numpy as np
 
 from benchmarks import paper_case as pc
-from benchmarks.accuracy_rom_ams import pct_error
+from benchmarks.accuracy_rom_ams import eas, pct_error
 from benchmarks.tsd_ams_gap import analyse
 from romams.services.evaluation import Models, structure_modal
 from romams.services.training import rom_identity
 from romams_core.anchors import harmonic_anchors
 from romams_core.basis import project
+from romams_core.evaluate import evaluate_structure
 from romams_core.training_tsd import make_tsd_solver
 from romams_core.wing import cropped_delta
 
@@ -105,6 +109,24 @@ def run(mach: float, ks: tuple[float, ...], x: tuple[float, ...], rom_dir: Path,
     return res
 
 
+def basis_only(mach: float, x: tuple[float, ...], rom_dir: Path, reference: float) -> dict[str, Any]:
+    """The basis ROM alone, trained (or read) with the product's identity (its default anchors, docs/transonic.md
+    7.11): its ROM-AMS flutter of the design by the state-space search against a known TSD point (EAS m/s)."""
+    t0 = time.perf_counter()
+    models, modal, ident = setup(x)
+    (rom,) = pc.Trainer(1, rom_dir).roms(models.mesh, models.basis.shapes, [mach], ident)
+    res = evaluate_structure(modal, models.basis.shapes, {mach: (rom.ss, rom.c_ref)},
+                             zeta=models.wing.modal_damping).flutter[0]
+    v = eas(res.q_flutter_pa) if res.flutter_found else None
+    return {"mach": mach, "x": list(x), "rom_identity": ident, "states": int(rom.ss.n_states),
+            "anchor_k": None if rom.anchor_k is None else [float(k) for k in rom.anchor_k],
+            "anchor_band_error_pct": None if rom.anchor_band_error is None else 100 * rom.anchor_band_error,
+            "validation_nrmse_pct": [100 * float(v) for v in rom.validation_nrmse], "train_seconds": rom.train_seconds,
+            "v_eas_rom_ams": v, "omega_flutter_rad_s": res.omega_flutter_rad_s, "k_flutter": res.k_flutter,
+            "flutter_mode": res.flutter_mode, "reference_v_eas": reference, "vs_tsd_pct": pct_error(v, reference),
+            "warnings": list(rom.warnings), "wall_s": time.perf_counter() - t0}
+
+
 def main() -> None:
     """CLI entry point."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -114,7 +136,12 @@ def main() -> None:
     ap.add_argument("--x", type=float, nargs=7, default=list(TSD_OPTIMUM), help="the design (own units)")
     ap.add_argument("--rom-dir", type=Path, required=True, help="the ROMs, kept and reused (paper_case --rom-dir)")
     ap.add_argument("--processes", type=int, default=2)
+    ap.add_argument("--reference", type=float, default=None, metavar="V_EAS",
+                    help="only the basis ROM (product identity, default anchors) against this known TSD point (m/s)")
     a = ap.parse_args()
+    if a.reference is not None:
+        print(json.dumps(basis_only(a.mach, tuple(a.x), a.rom_dir, a.reference)))
+        return
     print(json.dumps(run(a.mach, tuple(a.k), tuple(a.x), a.rom_dir, a.processes)))
 
 

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.accuracy_rom_ams import anchor_options, anchor_value
 from benchmarks.validate_dlm import AGARD_EXPERIMENT, CROPPED_DELTA
 from romams.pipeline import parallel_map
 from romams.services.training import rom_identity, train
@@ -202,8 +203,9 @@ def main() -> None:
     ap.add_argument("--nrmse-tol", type=float, default=None, help="TSD ARX validation tolerance (default 0.05)")
     ap.add_argument("--na", type=int, default=None, help="TSD ARX output order (default: TSD_ORDERS)")
     ap.add_argument("--nb", type=int, default=None, help="TSD ARX input order (default: TSD_ORDERS)")
-    ap.add_argument("--anchor-k", type=float, nargs="+", default=None,
-                    help="TSD training option anchor_k: anchor every TSD ROM to direct harmonic runs at these k")
+    ap.add_argument("--anchor-k", type=anchor_value, nargs="+", default=None,
+                    help="TSD training option anchor_k at these k ('none': plain ROMs, as measured before "
+                         "2026-12-04; default: the training's default anchors)")
     ap.add_argument("--study-variants", default="default,dt,coarse,fine",
                     help="study: comma list of default, dt (tsd_dt halved), coarse (grid x 0.625), fine (x 1.25)")
     ap.add_argument("--processes", type=int, default=1)
@@ -214,8 +216,7 @@ def main() -> None:
     if a.nrmse_tol is not None:
         base["nrmse_tol"] = a.nrmse_tol
     base.update({k: v for k, v in (("na", a.na), ("nb", a.nb)) if v is not None})
-    if a.anchor_k is not None:
-        base["anchor_k"] = list(a.anchor_k)
+    base.update(anchor_options(a.anchor_k))
     out: dict[str, Any] = {"grid_scale": a.grid_scale}
     t0 = time.perf_counter()
     if "agard" in cases:

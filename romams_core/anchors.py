@@ -29,7 +29,15 @@ from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
 from romams_core.statespace import DiscreteSS
 
-__all__ = ["tone_amplitudes", "tone_records", "harmonic_anchors", "anchor_lags", "anchored"]
+__all__ = ["tone_amplitudes", "tone_records", "harmonic_anchors", "step_records", "step_transfer", "step_anchors",
+           "anchor_lags", "anchored"]
+
+#: how long a step record holds the shape (t*): the cropped-delta basis at M 0.95, whose upstream acoustic waves
+#: settle slowest, matches the tone runs at k 0.05 / 0.1 to 0.05 % of the largest entry from 120 t* on (0.3 % at
+#: 80 t*; docs/transonic.md 7.11)
+STEP_HOLD = 120.0
+#: cosine ramp of a step record (t*): smooth enough for the sub-step motion, short against the hold
+STEP_RAMP = 2.0
 
 
 def tone_amplitudes(x: np.ndarray, t: np.ndarray, omegas: np.ndarray) -> np.ndarray:
@@ -91,6 +99,50 @@ def harmonic_anchors(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndar
         outs = [solver.simulate(mesh, shapes, r, mach, dt_star) for r in records]  # m runs
     om = 2.0 * k
     cols = [tone_amplitudes(np.asarray(g)[last], t[last], om) / tone_amplitudes(r[last, j], t[last], om)[:, None]
+            for j, (g, r) in enumerate(zip(outs, records, strict=True))]
+    return np.stack(cols, axis=2)  # [n_k, p, m]: column j from run j
+
+
+def step_records(shapes: np.ndarray, c_ref: float, hold: float = STEP_HOLD, dt_star: float = 0.1,
+                 peak_fraction: float = 0.002, ramp: float = STEP_RAMP) -> list[np.ndarray]:
+    """One record [T, m] per shape: that shape alone, raised by a cosine ramp over ``ramp`` t* until its peak
+    surface displacement is ``peak_fraction`` c_ref, then held until ``hold`` t*."""
+    if not (math.isfinite(hold) and 10.0 * ramp <= hold <= 2000.0):
+        raise InputError("anchor_hold", f"must be in [{10.0 * ramp:g}, 2000] t*, got {hold!r}")
+    t = np.arange(int(round(hold / dt_star)) + 1) * dt_star
+    s = np.where(t < ramp, 0.5 * (1.0 - np.cos(np.pi * t / ramp)), 1.0)
+    peak = np.abs(shapes).max(axis=0)
+    if np.any(peak <= 0.0):
+        raise InputError("shapes", "a shape without displacement cannot be run")
+    records = []
+    for col in range(shapes.shape[1]):  # m records
+        sig = np.zeros((t.size, shapes.shape[1]))
+        sig[:, col] = peak_fraction * c_ref / peak[col] * s
+        records.append(sig)
+    return records
+
+
+def step_transfer(y: np.ndarray, u: np.ndarray, k: np.ndarray, dt_star: float) -> np.ndarray:
+    """Column [n_k, p] of the discrete transfer matrix at reduced frequencies k (on c_ref / 2) from one record
+    started at rest: sum dy_n z^-n / sum du_n z^-n, z = exp(2 i k dt*) (y [T, p] outputs, u [T] the moving shape's
+    input). Exact for a linear system once dy has died out within the record (k = 0: the settled gain)."""
+    n = np.arange(1, y.shape[0])
+    zn = np.exp(-2j * np.outer(np.asarray(k, dtype=float), n) * dt_star)  # [n_k, T - 1]
+    return (zn @ np.diff(y, axis=0)) / (zn @ np.diff(u))[:, None]
+
+
+def step_anchors(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndarray, mach: float, k: np.ndarray,
+                 dt_star: float = 0.1, peak_fraction: float = 0.002, hold: float = STEP_HOLD,
+                 progress: ProgressFn | None = None) -> np.ndarray:
+    """Transfer matrix [n_k, m, m] (m^3 per unit generalized displacement) of ``solver`` at the reduced frequencies
+    k (on c_ref / 2) from one step record per shape (``step_records``), side by side for a RecordsSolver. One run
+    serves every k whose response has settled within ``hold`` (k = 0 included), unlike ``harmonic_anchors``."""
+    records = step_records(shapes, mesh.c_ref, hold, dt_star, peak_fraction)
+    if isinstance(solver, RecordsSolver):
+        outs = solver.simulate_records(mesh, shapes, records, mach, dt_star, progress=progress)
+    else:
+        outs = [solver.simulate(mesh, shapes, r, mach, dt_star) for r in records]  # m runs
+    cols = [step_transfer(np.asarray(g), r[:, j], np.asarray(k, dtype=float), dt_star)
             for j, (g, r) in enumerate(zip(outs, records, strict=True))]
     return np.stack(cols, axis=2)  # [n_k, p, m]: column j from run j
 

@@ -93,8 +93,9 @@ class TrainedRom:
     ar_ridge: float = 0.0  # AR-only regularization used (0 unless the plain fit was unstable)
     mean_flow: dict | None = None  # transonic solvers: the steady mean flow (surface Cp, convergence history)
     linearity_error: float | None = None  # transonic solvers: |2 GAC(u/2) - GAC(u)| / |GAC(u)| when checked
-    anchor_k: np.ndarray | None = None  # reduced frequencies of direct harmonic runs the ss reproduces (anchors)
+    anchor_k: np.ndarray | None = None  # reduced frequencies of direct solver runs the ss reproduces (anchors)
     anchor_gaf: np.ndarray | None = None  # [n_k, m, m] complex: the solver's transfer matrix there (m^3 per unit)
+    anchor_band_error: float | None = None  # anchored: worst error against the direct runs over a k band (share)
 
     def summary(self) -> dict[str, object]:
         """Small JSON-able summary (floats and lists)."""
@@ -115,6 +116,7 @@ class TrainedRom:
                 "mean_flow_steps": self.mean_flow.get("steady_steps")} if self.mean_flow else {}),
             **({"linearity_error": self.linearity_error} if self.linearity_error is not None else {}),
             **({"anchor_k": [float(k) for k in self.anchor_k]} if self.anchor_k is not None else {}),
+            **({"anchor_band_error": self.anchor_band_error} if self.anchor_band_error is not None else {}),
         }
 
 

@@ -19,7 +19,7 @@ from romams_core.aero.tsd import TsdSolver
 from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS
 from romams_core.aero.tsd.grid import GridSpec
 from romams_core.aero.tsd.solver import MIN_WING_COLUMNS_PER_SHAPE, check_thickness
-from romams_core.anchors import anchored, check_anchor_k, harmonic_anchors
+from romams_core.anchors import STEP_HOLD, anchored, check_anchor_k, step_anchors
 from romams_core.arx import nrmse
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
@@ -35,8 +35,18 @@ LINEARITY_TOL = 0.02
 #: (benchmarks.tsd_ams_gap) that is scatter of the basis ROM's low-k GAF, and no order 8-16 or input spectrum
 #: (low_k_corner) held all designs within 2 %. On the paper case's TSD optimum at M 0.95 (7.10) the 8/8 basis ROM is
 #: 3.8 % above the TSD's own flutter point and refits at 8-14 are 3.4-6.1 % above it: no order is safe everywhere.
-#: The cure is ``anchor_k`` (direct harmonic runs; ROM-AMS within 0.16 % of the TSD points at M 0.95, 7.7)
+#: The cure is ``anchor_k`` (direct runs; ROM-AMS within 0.16 % of the TSD points at M 0.95, 7.7), on by default
 TSD_ORDERS = (8, 8)
+
+#: default anchors of a TSD ROM (k on c_ref / 2): the band below k 0.1 where the plain ARX scatters, from one step
+#: record per shape (``anchors.step_anchors``), so the k need not be known before the training (docs/transonic.md
+#: 7.11). ``anchor_k`` None (JSON null) or [] trains a plain ROM, which carries ``UNANCHORED_WARNING``.
+DEFAULT_ANCHOR_K = (0.025, 0.05, 0.1)
+#: reduced frequencies (c_ref / 2) at which an anchored ROM is checked against the step records between and beyond
+#: its anchors: the ``anchor_band_error`` it reports
+ANCHOR_BAND_K = tuple(float(v) for v in np.round(np.geomspace(0.01, 0.2, 14), 4))
+#: above this band error (share of the largest entry) the anchored ROM says so in its warnings
+ANCHOR_BAND_TOL = 0.005
 
 #: the warning an unanchored TSD ROM carries into every flutter result (measured on the paper case's TSD optimum,
 #: docs/transonic.md 7.10: the trained ROMs 43 % low to 3.8 % high, refits of their records up to 6.1 % high)
@@ -48,6 +58,11 @@ UNANCHORED_WARNING = ("not anchored: the low-k GAF (k < 0.1 on c_ref / 2) of a p
 #: further ARX orders tried on the same records when the requested ones miss nrmse_tol (a refit costs seconds; the
 #: TSD run minutes): the cropped delta's own modes at M 0.87 missed 5 % with 8/8 on one output (5.97 %)
 ORDER_FALLBACKS = ((10, 10), (12, 12), (6, 6))
+
+
+def anchors_on(anchor_k: Any) -> bool:
+    """True unless ``anchor_k`` asks for a plain ROM (None or an empty list)."""
+    return anchor_k is not None and not (isinstance(anchor_k, list | tuple | np.ndarray) and len(anchor_k) == 0)
 
 
 def tsd_n_steps(n_inputs: int, na: int, nb: int, dt_star: float) -> int:
@@ -66,7 +81,8 @@ def tsd_grid_spec(grid_scale: float = 1.0) -> GridSpec:
 def check_tsd_settings(n_shapes: int | None = None, *, thickness_form: str | None = None,
                        thickness_to_chord: float = 0.0, grid_scale: float = 1.0, tsd_dt: float = 0.02,
                        coefficients: str = "ames", symmetry: str | None = None, low_k_corner: float = 0.0,
-                       k_max: float = 1.5, anchor_k: Sequence[float] | None = None, **_: Any) -> None:
+                       k_max: float = 1.5, anchor_k: Sequence[float] | None = DEFAULT_ANCHOR_K,
+                       anchor_hold: float = STEP_HOLD, **_: Any) -> None:
     """Validate TSD training settings (InputError naming the field); ``n_shapes`` also checks the grid size."""
     check_thickness(thickness_form, thickness_to_chord)
     if symmetry is not None:
@@ -78,8 +94,9 @@ def check_tsd_settings(n_shapes: int | None = None, *, thickness_form: str | Non
         raise InputError("tsd_dt", f"must be in (0, 0.05] (t*; larger steps are unstable), got {tsd_dt!r}")
     check_number("k_max", k_max, 0.0)
     check_number("low_k_corner", low_k_corner, 0.0, strict=False, upper=float(k_max), upper_strict=False)
-    if anchor_k is not None:
-        check_anchor_k(anchor_k, float(k_max))
+    if anchors_on(anchor_k):
+        check_anchor_k(cast(Sequence[float], anchor_k), float(k_max))
+        check_number("anchor_hold", anchor_hold, 20.0, strict=False, upper=2000.0, upper_strict=False)
     if n_shapes is not None:
         columns = spec.n_chord * spec.n_span
         if columns < MIN_WING_COLUMNS_PER_SHAPE * n_shapes:
@@ -120,7 +137,8 @@ def train_tsd_rom(
     progress: ProgressFn | None = None,
     symmetry: str | None = None,
     low_k_corner: float = 0.0,
-    anchor_k: Sequence[float] | None = None,
+    anchor_k: Sequence[float] | None = DEFAULT_ANCHOR_K,
+    anchor_hold: float = STEP_HOLD,
 ) -> TrainedRom:
     """ARX ROM of the TSD solver for shapes [N, m] (m) at ``mach`` about the steady mean flow of the section.
 
@@ -132,22 +150,25 @@ def train_tsd_rom(
     (8/8); 12/12 (a record 1.5 times longer, ``tsd_n_steps``) is asked for with na/nb.
     ``symmetry``: the root plane's (symmetric, antisymmetric, none: a free wing; ``TsdSolver.symmetry``); None
     keeps the solver's.
-    ``anchor_k`` (reduced frequencies, e.g. [0.05, 0.1]): after the training run, each shape is run alone at those
-    tones (``anchors.harmonic_anchors``, one record per shape side by side) and the ROM gets the parallel lag
-    correction that reproduces them exactly (``anchors.anchored``; 3 m more states for 2 anchors). Costs about
-    2.8 training runs for 8 shapes; pins the low-k GAF that decides transonic ROM-AMS flutter (docs/transonic.md
-    7.7). Without it the ROM carries ``UNANCHORED_WARNING`` (7.10).
+    ``anchor_k`` (reduced frequencies on c_ref / 2; default ``DEFAULT_ANCHOR_K``): after the training run, each
+    shape is stepped alone and held ``anchor_hold`` t* (``anchors.step_anchors``, one record per shape side by
+    side), and the ROM gets the parallel lag correction that reproduces the direct transfer matrix at those k
+    exactly (``anchors.anchored``; (2 K - 1) m more states for K anchors). The same records check the anchored ROM
+    over ``ANCHOR_BAND_K`` (``anchor_band_error``). Costs about 2.3 training runs for 8 shapes; pins the low-k GAF
+    that decides transonic ROM-AMS flutter (docs/transonic.md 7.7, 7.11). None or [] trains a plain ROM, which
+    carries ``UNANCHORED_WARNING`` (7.10).
     """
     shapes = np.asarray(shapes, dtype=float)
     m = shapes.shape[1] if shapes.ndim == 2 else 1
     check_tsd_settings(m, thickness_form=thickness_form, thickness_to_chord=thickness_to_chord,
                        grid_scale=grid_scale, tsd_dt=tsd_dt, coefficients=coefficients, symmetry=symmetry,
-                       low_k_corner=low_k_corner, k_max=k_max, anchor_k=anchor_k)
+                       low_k_corner=low_k_corner, k_max=k_max, anchor_k=anchor_k, anchor_hold=anchor_hold)
+    anchor = anchors_on(anchor_k)
     solver = solver or make_tsd_solver(thickness_form, thickness_to_chord, grid_scale, tsd_dt, coefficients)
     solver = cast(TsdSolver, with_symmetry(solver, symmetry))  # replaced before the run: its mean flow is read below
     if n_steps is None:
         n_steps = tsd_n_steps(m, na, nb, dt_star)
-    share = 1.0 if anchor_k is None else 0.4
+    share = 0.3 if anchor else 1.0
     rom = train_rom(mesh, shapes, mach, solver, na=na, nb=nb, k_max=k_max, n_steps=n_steps, dt_star=dt_star,
                     seed=seed, nrmse_tol=nrmse_tol, reduce_order=reduce_order, progress=_scaled(progress, 0.0, share),
                     displacement_fraction=displacement_fraction, order_fallbacks=ORDER_FALLBACKS,
@@ -162,11 +183,12 @@ def train_tsd_rom(
         if not solver.last_mean_flow.steady.converged:
             rom.warnings.append(f"TSD mean flow not converged to dphi/dt < {solver.steady_tol:g} in "
                                 f"{solver.steady_steps} steps")
-    if anchor_k is not None:
-        k = check_anchor_k(anchor_k, k_max)
-        gaf = harmonic_anchors(solver, mesh, shapes, mach, k, dt_star, displacement_fraction,
-                               _scaled(progress, share, 1.0 - share))
-        _anchor(rom, k, gaf)
+    if anchor:
+        k = check_anchor_k(cast(Sequence[float], anchor_k), k_max)
+        band = np.asarray(ANCHOR_BAND_K)
+        gaf = step_anchors(solver, mesh, shapes, mach, np.concatenate([k, band]), dt_star, displacement_fraction,
+                           anchor_hold, _scaled(progress, share, 1.0 - share))
+        _anchor(rom, k, gaf[:k.size], band, gaf[k.size:])
     else:
         rom.warnings.append(UNANCHORED_WARNING)
     if linearity_check:
@@ -186,8 +208,10 @@ def _scaled(progress: ProgressFn | None, start: float, share: float) -> Progress
     return lambda frac, msg: progress(start + share * frac, msg)
 
 
-def _anchor(rom: TrainedRom, k: np.ndarray, gaf: np.ndarray) -> None:
-    """Give ``rom`` the lag correction to the anchors (k, gaf [n_k, m, m]); its validation redone from rest.
+def _anchor(rom: TrainedRom, k: np.ndarray, gaf: np.ndarray, band: np.ndarray | None = None,
+            band_gaf: np.ndarray | None = None) -> None:
+    """Give ``rom`` the lag correction to the anchors (k, gaf [n_k, m, m]); its validation redone from rest, its
+    error against the direct band_gaf [n_band, m, m] at ``band`` (share of the largest entry) stored.
     TrainingError when the anchored model misses the ROM's nrmse_tol (the anchors contradict the records)."""
     before = float(np.max(rom.validation_nrmse))
     fit = rom.ss.freqresp(k)
@@ -202,6 +226,15 @@ def _anchor(rom: TrainedRom, k: np.ndarray, gaf: np.ndarray) -> None:
     rom.predicted_validation, rom.validation_nrmse = pred, val
     rom.spectral_radius = float(rom.ss.spectral_radius())
     change = float(np.abs(gaf - fit).max() / np.abs(gaf).max())
-    rom.warnings.append(f"anchored to direct harmonic runs at k = {', '.join(f'{x:g}' for x in k)}: correction up "
+    rom.warnings.append(f"anchored to direct TSD runs at k = {', '.join(f'{x:g}' for x in k)}: correction up "
                         f"to {100 * change:.2f} % of the largest GAF entry there; validation NRMSE "
                         f"{100 * before:.2f} -> {100 * float(np.max(rom.validation_nrmse)):.2f} %")
+    if band is None or band_gaf is None:
+        return
+    err = np.abs(ss.freqresp(band) - band_gaf).max(axis=(1, 2)) / np.abs(band_gaf).max(axis=(1, 2))
+    rom.anchor_band_error = float(err.max())
+    if rom.anchor_band_error > ANCHOR_BAND_TOL:
+        worst = float(band[int(np.argmax(err))])
+        rom.warnings.append(f"anchored ROM off the direct TSD response by {100 * rom.anchor_band_error:.2f} % of "
+                            f"the largest entry at k = {worst:g} (checked at k {band[0]:g}-{band[-1]:g}): add an "
+                            "anchor there")

@@ -1,7 +1,9 @@
-"""A TSD training with harmonic anchors: the stored ROM reproduces direct harmonic TSD runs at the anchor k."""
+"""A TSD training with anchors: the stored ROM reproduces the direct TSD response (step records) at the anchor k,
+which a harmonic run confirms."""
 
 from __future__ import annotations
 
+import inspect
 import math
 
 import numpy as np
@@ -14,7 +16,7 @@ from romams_core.aero.tsd.grid import GridSpec
 from romams_core.errors import InputError
 from romams_core.mesh import Planform, standard_mesh
 from romams_core.training import TrainingError
-from romams_core.training_tsd import _anchor, train_tsd_rom
+from romams_core.training_tsd import DEFAULT_ANCHOR_K, _anchor, anchors_on, train_tsd_rom
 
 PLANFORM = Planform(root_chord=0.559, tip_chord=0.368, semispan=0.762, sweep_le=math.radians(46.7),
                     n_chord=10, n_span=12)
@@ -22,16 +24,18 @@ SMALL = GridSpec(n_chord=16, n_upstream=6, n_downstream=8, n_span=6, n_outboard=
 
 
 def test_anchored_tsd_rom_reproduces_direct_harmonic_runs():
-    """Two shapes at M 0.8 on a small grid, anchors at k 0.1 / 0.2: the ROM meets its stored anchors to 1e-8;
-    the anchors agree with an independent single-tone run at k 0.2 within 1 %; the free-run validation stays
-    within 1 point of percent of the unanchored ROM's; the anchors survive storage; anchors 10x off are refused."""
+    """Two shapes at M 0.8 on a small grid, anchors at k 0.1 / 0.2 from the step records: the ROM meets its stored
+    anchors to 1e-8; the anchors agree with an independent single-tone run at k 0.2 within 1 %; the anchored ROM
+    is checked over the k band (``anchor_band_error`` below 2 %); the free-run validation stays within 1 point of
+    percent of the unanchored ROM's; the anchors survive storage; anchors 10x off are refused; the default is
+    anchored (``DEFAULT_ANCHOR_K``), and None or [] trains a plain ROM that warns."""
     mesh = standard_mesh(PLANFORM)
     eta = mesh.y / PLANFORM.semispan
     shapes = np.column_stack([0.01 * eta**2, 0.01 * eta * (mesh.x - mesh.x.mean()) / PLANFORM.root_chord])
     solver = TsdSolver(grid=SMALL, record_threads=2)
     kw = dict(na=4, nb=4, n_steps=600, nrmse_tol=0.2)
-    plain = train_tsd_rom(mesh, shapes, 0.8, solver, **kw)
-    rom = train_tsd_rom(mesh, shapes, 0.8, solver, anchor_k=[0.2, 0.1], **kw)
+    plain = train_tsd_rom(mesh, shapes, 0.8, solver, anchor_k=None, **kw)
+    rom = train_tsd_rom(mesh, shapes, 0.8, solver, anchor_k=[0.2, 0.1], anchor_hold=60.0, **kw)
     np.testing.assert_array_equal(rom.anchor_k, [0.1, 0.2])
     gaf = rom.anchor_gaf
     assert gaf.shape == (2, 2, 2) and np.iscomplexobj(gaf)
@@ -41,6 +45,7 @@ def test_anchored_tsd_rom_reproduces_direct_harmonic_runs():
     assert rom.ss.n_states == plain.ss.n_states + 3 * 2
     assert np.max(rom.validation_nrmse) < np.max(plain.validation_nrmse) + 0.01
     assert any("anchored" in w for w in rom.warnings) and rom.summary()["anchor_k"] == [0.1, 0.2]
+    assert plain.anchor_band_error is None and 0.0 < rom.summary()["anchor_band_error"] < 0.02
     assert not any(w.startswith("not anchored") for w in rom.warnings)
     assert any(w.startswith("not anchored") for w in plain.warnings)
     back = loads(*dumps(rom))
@@ -49,3 +54,7 @@ def test_anchored_tsd_rom_reproduces_direct_harmonic_runs():
         _anchor(plain, rom.anchor_k, 10.0 * gaf)
     with pytest.raises(InputError, match="anchor_k"):
         train_tsd_rom(mesh, shapes, 0.8, solver, anchor_k=[0.0, 0.1], **kw)
+    with pytest.raises(InputError, match="anchor_hold"):
+        train_tsd_rom(mesh, shapes, 0.8, solver, anchor_hold=5.0, **kw)
+    assert inspect.signature(train_tsd_rom).parameters["anchor_k"].default == DEFAULT_ANCHOR_K == (0.025, 0.05, 0.1)
+    assert not anchors_on(None) and not anchors_on([]) and anchors_on([0.05])

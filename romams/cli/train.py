@@ -52,9 +52,10 @@ def train_command(
                                             "multiplied by this (0.25-4; 0.5 is a quick run)"),
     linearity_check: bool = typer.Option(False, "--linearity-check", help="tsd: rerun at half amplitude and report "
                                          "the deviation from linear scaling"),
-    anchor_k: str | None = typer.Option(None, "--anchor-k", help="tsd: anchor the ROM to direct harmonic runs of "
-                                        "each shape at these reduced frequencies, e.g. 0.05,0.1 (about 3x the "
-                                        "training's cost for 8 shapes; docs/transonic.md 7.7)"),
+    anchor_k: str | None = typer.Option(None, "--anchor-k", help="tsd: the reduced frequencies at which the ROM is "
+                                        "anchored to direct step runs of each shape (default 0.025,0.05,0.1; "
+                                        "'none': a plain ROM, which warns of its low-k scatter; docs/transonic.md "
+                                        "7.11)"),
     gaf: Path | None = typer.Option(None, "--gaf", help="import a GAF table (NPZ, CSV, or Nastran's QHH from an "
                                     "OUTPUT4 .op4 or punch .pch file, computed on the basis shapes) as the ROM of "
                                     "solver external:LABEL instead of training one"),
@@ -114,7 +115,9 @@ def train_command(
             options["grid_scale"] = grid_scale
         if linearity_check:
             options["linearity_check"] = True
-        if anchor_k is not None:
+        if anchor_k is not None and anchor_k.strip().lower() == "none":
+            options["anchor_k"] = None
+        elif anchor_k is not None:
             try:
                 options["anchor_k"] = [float(v) for v in anchor_k.split(",")]
             except ValueError:

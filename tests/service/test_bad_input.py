@@ -141,6 +141,9 @@ def test_training_errors_once_a_basis_exists(client, tmp_path):
                      ([[0.05], [0.1]], "finite numbers"), ([0.1, 0.1], "distinct")):
         problem(client.post(roms, json={"mach": 0.9, "options": {"anchor_k": bad}, **tsd}), 422,
                 "options.anchor_k", why)
+    for bad in (5.0, 1e6, "long"):  # the step records' hold (t*)
+        problem(client.post(roms, json={"mach": 0.9, "options": {"anchor_hold": bad}, **tsd}), 422,
+                "options.anchor_hold")
     assert _counts(client) == before
 
 

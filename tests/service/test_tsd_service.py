@@ -20,12 +20,16 @@ def test_identity_carries_the_wing_section():
     assert section_options(agard) == {"thickness_form": "naca65a004", "thickness_to_chord": 0.03994}
     assert section_options(delta) == {"thickness_form": None, "thickness_to_chord": 0.0}
     ident = rom_identity("tsd", 8, 8, {"grid_scale": 0.5}, wing=agard)
-    assert ident["options"] == {"grid_scale": 0.5, "thickness_form": "naca65a004", "thickness_to_chord": 0.03994}
+    assert ident["options"] == {"anchor_k": [0.025, 0.05, 0.1], "grid_scale": 0.5, "thickness_form": "naca65a004",
+                                "thickness_to_chord": 0.03994}  # the default anchors are part of it
+    for plain in (None, []):  # both ask for a plain ROM: one identity
+        assert rom_identity("tsd", options={"anchor_k": plain}, wing=agard)["options"]["anchor_k"] is None
     # an explicit section wins; other solvers ignore the wing
     assert rom_identity("tsd", options={"thickness_to_chord": 0.03}, wing=agard)["options"]["thickness_to_chord"] \
         == 0.03
     assert rom_identity("dlm", wing=agard)["options"] == {}
-    assert {"grid_scale", "thickness_form", "linearity_check", "tsd_dt"} <= allowed_options("tsd")
+    assert {"grid_scale", "thickness_form", "linearity_check", "tsd_dt", "anchor_k", "anchor_hold"} \
+        <= allowed_options("tsd")
 
 
 def test_default_arx_orders_are_the_solvers():
@@ -48,7 +52,7 @@ def tiny_tsd_rom():
     mesh = standard_mesh(wing.planform)
     eta = mesh.y / wing.planform.semispan
     rom = train_tsd_rom(mesh, (0.01 * eta ** 2)[:, None], 0.9, na=2, nb=2, n_steps=200, grid_scale=0.5,
-                        thickness_form="naca65a004", thickness_to_chord=0.04, nrmse_tol=1.0)
+                        thickness_form="naca65a004", thickness_to_chord=0.04, nrmse_tol=1.0, anchor_k=None)
     return wing, rom
 
 
