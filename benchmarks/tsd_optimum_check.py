@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks import paper_case as pc
-from benchmarks.accuracy_rom_ams import eas, pct_error
+from benchmarks.accuracy_rom_ams import anchor_options, anchor_value, eas, pct_error
 from benchmarks.tsd_ams_gap import analyse
 from romams.services.evaluation import Models, structure_modal
 from romams.services.training import rom_identity
@@ -45,20 +45,21 @@ TSD_OPTIMUM = (0.1774, 0.6427, 0.8254, 0.0657, 1.997, 1.978, 0.5323)
 SOLVER_OPTIONS = ("thickness_form", "thickness_to_chord", "grid_scale", "coefficients")
 
 
-def setup(x: tuple[float, ...]) -> tuple[Models, Any, dict[str, Any]]:
+def setup(x: tuple[float, ...], options: dict[str, Any] | None = None) -> tuple[Models, Any, dict[str, Any]]:
     """(models without ROMs, the design's modal result, ROM identity) of the paper case (eccentric beam): its basis
     with ``paper_case.build_models``' defaults, no Mach trained."""
     wing = cropped_delta(beam_placement="eccentric")
-    ident = rom_identity("tsd", wing=wing)
+    ident = rom_identity("tsd", options=options, wing=wing)
     models, _ = pc.build_models(wing, [], ident)
     return models, structure_modal(models, list(x)), ident
 
 
-def _job(args: tuple[str, tuple[float, ...], float, tuple[float, ...], Path]) -> tuple[str, Any, float]:
+def _job(args: tuple[str, tuple[float, ...], float, tuple[float, ...], Path, dict[str, Any]]
+         ) -> tuple[str, Any, float]:
     """Worker body: "basis" | "modes" trains (or reads) that ROM into the ROM directory; "direct" runs the modes."""
-    kind, x, mach, ks, rom_dir = args
+    kind, x, mach, ks, rom_dir, options = args
     t0 = time.perf_counter()
-    models, modal, ident = setup(x)
+    models, modal, ident = setup(x, options)
     if kind == "direct":  # kept next to the ROMs: a rerun (other analysis, more Machs) reads it
         path = rom_dir / f"direct-M{mach:g}-k{'-'.join(f'{k:g}' for k in ks)}-x{'-'.join(f'{v:g}' for v in x)}.npy"
         if path.exists():
@@ -75,14 +76,14 @@ def _job(args: tuple[str, tuple[float, ...], float, tuple[float, ...], Path]) ->
     return kind, out, time.perf_counter() - t0
 
 
-def run(mach: float, ks: tuple[float, ...], x: tuple[float, ...], rom_dir: Path, processes: int = 2
-        ) -> dict[str, Any]:
+def run(mach: float, ks: tuple[float, ...], x: tuple[float, ...], rom_dir: Path, processes: int = 2,
+        options: dict[str, Any] | None = None) -> dict[str, Any]:
     """Train / read both ROMs, run the direct columns, compare (module docstring); a JSON-able dict."""
     t0 = time.perf_counter()
-    jobs = [(kind, x, mach, ks, rom_dir) for kind in ("basis", "direct", "modes")]
+    jobs = [(kind, x, mach, ks, rom_dir, options or {}) for kind in ("basis", "direct", "modes")]
     with get_context("spawn").Pool(processes) as pool:
         done = {kind: (out, sec) for kind, out, sec in pool.imap_unordered(_job, jobs)}
-    models, modal, ident = setup(x)
+    models, modal, ident = setup(x, options)
     trainer = pc.Trainer(1, rom_dir)
     (rom_b,) = trainer.roms(models.mesh, models.basis.shapes, [mach], ident)
     (rom_p,) = trainer.roms(models.mesh, modal.shapes, [mach], ident)
@@ -109,11 +110,12 @@ def run(mach: float, ks: tuple[float, ...], x: tuple[float, ...], rom_dir: Path,
     return res
 
 
-def basis_only(mach: float, x: tuple[float, ...], rom_dir: Path, reference: float) -> dict[str, Any]:
+def basis_only(mach: float, x: tuple[float, ...], rom_dir: Path, reference: float,
+               options: dict[str, Any] | None = None) -> dict[str, Any]:
     """The basis ROM alone, trained (or read) with the product's identity (its default anchors, docs/transonic.md
     7.11): its ROM-AMS flutter of the design by the state-space search against a known TSD point (EAS m/s)."""
     t0 = time.perf_counter()
-    models, modal, ident = setup(x)
+    models, modal, ident = setup(x, options)
     (rom,) = pc.Trainer(1, rom_dir).roms(models.mesh, models.basis.shapes, [mach], ident)
     res = evaluate_structure(modal, models.basis.shapes, {mach: (rom.ss, rom.c_ref)},
                              zeta=models.wing.modal_damping).flutter[0]
@@ -138,11 +140,15 @@ def main() -> None:
     ap.add_argument("--processes", type=int, default=2)
     ap.add_argument("--reference", type=float, default=None, metavar="V_EAS",
                     help="only the basis ROM (product identity, default anchors) against this known TSD point (m/s)")
+    ap.add_argument("--anchor-k", type=anchor_value, nargs="+", default=None,
+                    help="the ROMs' anchor_k ('none': plain ROMs, as in docs/transonic.md 7.10; default: the "
+                         "training's default anchors)")
     a = ap.parse_args()
+    options = anchor_options(a.anchor_k)
     if a.reference is not None:
-        print(json.dumps(basis_only(a.mach, tuple(a.x), a.rom_dir, a.reference)))
+        print(json.dumps(basis_only(a.mach, tuple(a.x), a.rom_dir, a.reference, options)))
         return
-    print(json.dumps(run(a.mach, tuple(a.k), tuple(a.x), a.rom_dir, a.processes)))
+    print(json.dumps(run(a.mach, tuple(a.k), tuple(a.x), a.rom_dir, a.processes, options)))
 
 
 if __name__ == "__main__":

@@ -74,16 +74,29 @@ def tone_records(shapes: np.ndarray, c_ref: float, k: np.ndarray, dt_star: float
     om = 2.0 * np.asarray(k, dtype=float)
     period = 2.0 * math.pi / om.min()
     t = np.arange(int(round(2.25 * period / dt_star)) + 1) * dt_star
-    wave = np.sin(np.outer(t, om)).sum(axis=1) * np.minimum(1.0, t / period)
+    wave = np.sin(np.outer(t, om)).sum(axis=1) * np.minimum(1.0, t / period) / om.size
+    return _each_shape_alone(shapes, peak_fraction * c_ref * wave), t, t >= t[-1] - period
+
+
+def _each_shape_alone(shapes: np.ndarray, motion: np.ndarray) -> list[np.ndarray]:
+    """One record [T, m] per shape: that shape alone, its peak surface displacement following ``motion`` [T] (m)."""
     peak = np.abs(shapes).max(axis=0)
     if np.any(peak <= 0.0):
         raise InputError("shapes", "a shape without displacement cannot be run")
     records = []
     for col in range(shapes.shape[1]):  # m records
-        sig = np.zeros((t.size, shapes.shape[1]))
-        sig[:, col] = peak_fraction * c_ref / peak[col] / om.size * wave
+        sig = np.zeros((motion.size, shapes.shape[1]))
+        sig[:, col] = motion / peak[col]
         records.append(sig)
-    return records, t, t >= t[-1] - period
+    return records
+
+
+def _run_records(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndarray, records: list[np.ndarray],
+                 mach: float, dt_star: float, progress: ProgressFn | None) -> list[np.ndarray]:
+    """GAC [T, p] of each record: side by side for a RecordsSolver, else one run after the other."""
+    if isinstance(solver, RecordsSolver):
+        return solver.simulate_records(mesh, shapes, records, mach, dt_star, progress=progress)
+    return [np.asarray(solver.simulate(mesh, shapes, r, mach, dt_star)) for r in records]
 
 
 def harmonic_anchors(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndarray, mach: float, k: np.ndarray,
@@ -93,10 +106,7 @@ def harmonic_anchors(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndar
     k (on c_ref / 2) from one multi-tone run per shape (``tone_records``), side by side for a RecordsSolver."""
     k = np.asarray(k, dtype=float)
     records, t, last = tone_records(shapes, mesh.c_ref, k, dt_star, peak_fraction)
-    if isinstance(solver, RecordsSolver):
-        outs = solver.simulate_records(mesh, shapes, records, mach, dt_star, progress=progress)
-    else:
-        outs = [solver.simulate(mesh, shapes, r, mach, dt_star) for r in records]  # m runs
+    outs = _run_records(solver, mesh, shapes, records, mach, dt_star, progress)
     om = 2.0 * k
     cols = [tone_amplitudes(np.asarray(g)[last], t[last], om) / tone_amplitudes(r[last, j], t[last], om)[:, None]
             for j, (g, r) in enumerate(zip(outs, records, strict=True))]
@@ -111,15 +121,7 @@ def step_records(shapes: np.ndarray, c_ref: float, hold: float = STEP_HOLD, dt_s
         raise InputError("anchor_hold", f"must be in [{10.0 * ramp:g}, 2000] t*, got {hold!r}")
     t = np.arange(int(round(hold / dt_star)) + 1) * dt_star
     s = np.where(t < ramp, 0.5 * (1.0 - np.cos(np.pi * t / ramp)), 1.0)
-    peak = np.abs(shapes).max(axis=0)
-    if np.any(peak <= 0.0):
-        raise InputError("shapes", "a shape without displacement cannot be run")
-    records = []
-    for col in range(shapes.shape[1]):  # m records
-        sig = np.zeros((t.size, shapes.shape[1]))
-        sig[:, col] = peak_fraction * c_ref / peak[col] * s
-        records.append(sig)
-    return records
+    return _each_shape_alone(shapes, peak_fraction * c_ref * s)
 
 
 def step_transfer(y: np.ndarray, u: np.ndarray, k: np.ndarray, dt_star: float) -> np.ndarray:
@@ -138,10 +140,7 @@ def step_anchors(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndarray,
     k (on c_ref / 2) from one step record per shape (``step_records``), side by side for a RecordsSolver. One run
     serves every k whose response has settled within ``hold`` (k = 0 included), unlike ``harmonic_anchors``."""
     records = step_records(shapes, mesh.c_ref, hold, dt_star, peak_fraction)
-    if isinstance(solver, RecordsSolver):
-        outs = solver.simulate_records(mesh, shapes, records, mach, dt_star, progress=progress)
-    else:
-        outs = [solver.simulate(mesh, shapes, r, mach, dt_star) for r in records]  # m runs
+    outs = _run_records(solver, mesh, shapes, records, mach, dt_star, progress)
     cols = [step_transfer(np.asarray(g), r[:, j], np.asarray(k, dtype=float), dt_star)
             for j, (g, r) in enumerate(zip(outs, records, strict=True))]
     return np.stack(cols, axis=2)  # [n_k, p, m]: column j from run j

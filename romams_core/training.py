@@ -96,6 +96,8 @@ class TrainedRom:
     anchor_k: np.ndarray | None = None  # reduced frequencies of direct solver runs the ss reproduces (anchors)
     anchor_gaf: np.ndarray | None = None  # [n_k, m, m] complex: the solver's transfer matrix there (m^3 per unit)
     anchor_band_error: float | None = None  # anchored: worst error against the direct runs over a k band (share)
+    anchor_band_k: np.ndarray | None = None  # that band's reduced frequencies
+    anchor_band_gaf: np.ndarray | None = None  # [n_band, m, m] complex: the direct transfer matrix there (m^3)
 
     def summary(self) -> dict[str, object]:
         """Small JSON-able summary (floats and lists)."""

@@ -232,7 +232,7 @@ def _anchor(rom: TrainedRom, k: np.ndarray, gaf: np.ndarray, band: np.ndarray | 
     if band is None or band_gaf is None:
         return
     err = np.abs(ss.freqresp(band) - band_gaf).max(axis=(1, 2)) / np.abs(band_gaf).max(axis=(1, 2))
-    rom.anchor_band_error = float(err.max())
+    rom.anchor_band_error, rom.anchor_band_k, rom.anchor_band_gaf = float(err.max()), band, band_gaf
     if rom.anchor_band_error > ANCHOR_BAND_TOL:
         worst = float(band[int(np.argmax(err))])
         rom.warnings.append(f"anchored ROM off the direct TSD response by {100 * rom.anchor_band_error:.2f} % of "

@@ -16,7 +16,7 @@ from romams_core.aero.tsd.grid import GridSpec
 from romams_core.errors import InputError
 from romams_core.mesh import Planform, standard_mesh
 from romams_core.training import TrainingError
-from romams_core.training_tsd import DEFAULT_ANCHOR_K, _anchor, anchors_on, train_tsd_rom
+from romams_core.training_tsd import ANCHOR_BAND_K, DEFAULT_ANCHOR_K, _anchor, anchors_on, train_tsd_rom
 
 PLANFORM = Planform(root_chord=0.559, tip_chord=0.368, semispan=0.762, sweep_le=math.radians(46.7),
                     n_chord=10, n_span=12)
@@ -46,10 +46,13 @@ def test_anchored_tsd_rom_reproduces_direct_harmonic_runs():
     assert np.max(rom.validation_nrmse) < np.max(plain.validation_nrmse) + 0.01
     assert any("anchored" in w for w in rom.warnings) and rom.summary()["anchor_k"] == [0.1, 0.2]
     assert plain.anchor_band_error is None and 0.0 < rom.summary()["anchor_band_error"] < 0.02
+    assert rom.anchor_band_gaf.shape == (len(ANCHOR_BAND_K), 2, 2)  # kept: a later re-anchoring needs no TSD run
+    np.testing.assert_array_equal(rom.anchor_band_k, ANCHOR_BAND_K)
     assert not any(w.startswith("not anchored") for w in rom.warnings)
     assert any(w.startswith("not anchored") for w in plain.warnings)
     back = loads(*dumps(rom))
     np.testing.assert_array_equal(back.anchor_gaf, gaf)
+    np.testing.assert_array_equal(back.anchor_band_gaf, rom.anchor_band_gaf)
     with pytest.raises(TrainingError, match="anchored at k"):  # anchors that contradict the records
         _anchor(plain, rom.anchor_k, 10.0 * gaf)
     with pytest.raises(InputError, match="anchor_k"):
