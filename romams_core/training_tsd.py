@@ -52,8 +52,8 @@ ANCHOR_BAND_TOL = 0.005
 #: docs/transonic.md 7.10: the trained ROMs 43 % low to 3.8 % high, refits of their records up to 6.1 % high)
 UNANCHORED_WARNING = ("not anchored: the low-k GAF (k < 0.1 on c_ref / 2) of a plain TSD ROM scatters with the ARX "
                       "identification (flutter speeds measured from 43 % low to 6 % high against the TSD's own "
-                      "points, docs/transonic.md 7.10); for flutter at low k train with anchor_k bracketing the "
-                      "flutter k")
+                      "points, docs/transonic.md 7.10); retrain with the default anchors (anchor_k not given, "
+                      "docs/transonic.md 7.11)")
 
 #: further ARX orders tried on the same records when the requested ones miss nrmse_tol (a refit costs seconds; the
 #: TSD run minutes): the cropped delta's own modes at M 0.87 missed 5 % with 8/8 on one output (5.97 %)
