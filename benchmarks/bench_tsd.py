@@ -13,7 +13,7 @@ Since 2026-12-04 the training is anchored by default (docs/transonic.md 7.11): `
 share of ``training_s``; ``--anchor-k none`` times a plain training.
 
 Usage: python -m benchmarks.bench_tsd [--machs 0.87] [--grid-scale 1.0] [--no-dlm] [--record-threads N]
-           [--anchor-k none|K1,K2,..]
+           [--anchor-k none|K1 K2 ..]
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def main() -> None:
     ap.add_argument("--machs", default="0.87")
     ap.add_argument("--grid-scale", type=float, default=1.0)
     ap.add_argument("--no-dlm", action="store_true", help="skip the DLM reference (no ratio)")
-    ap.add_argument("--anchor-k", default=None, help="comma list of anchor k, or 'none' (a plain ROM; the "
+    ap.add_argument("--anchor-k", nargs="+", default=None, help="anchor k, or 'none' (a plain ROM; the "
                     "training's default anchors when not given)")
     ap.add_argument("--record-threads", type=int, default=None,
                     help="threads marching the training and validation records (default: one each, up to the cores)")
@@ -43,6 +43,7 @@ def main() -> None:
 
     import numpy as np
 
+    from benchmarks.accuracy_rom_ams import anchor_options, anchor_value
     from romams.services.training import rom_identity, train
     from romams_core.basis import build_basis_for_wing
     from romams_core.mesh import standard_mesh
@@ -58,8 +59,7 @@ def main() -> None:
         solver.record_threads = args.record_threads
         grid = solver.build_grid(mesh)
         t0 = time.perf_counter()
-        anchors = {} if args.anchor_k is None else {"anchor_k": None if args.anchor_k == "none" else
-                                                    [float(v) for v in args.anchor_k.split(",")]}
+        anchors = anchor_options(None if args.anchor_k is None else [anchor_value(v) for v in args.anchor_k])
         rom = train_tsd_rom(mesh, basis.shapes, mach, solver, **anchors)
         total = time.perf_counter() - t0
         mf = solver.last_mean_flow

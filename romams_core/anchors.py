@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
@@ -28,9 +29,10 @@ from romams_core.aero.protocol import ProgressFn, RecordsSolver, UnsteadySolver
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
 from romams_core.statespace import DiscreteSS
+from romams_core.validation import check_number
 
-__all__ = ["tone_amplitudes", "tone_records", "harmonic_anchors", "step_records", "step_transfer", "step_anchors",
-           "anchor_lags", "anchored"]
+__all__ = ["tone_amplitudes", "tone_records", "harmonic_anchors", "check_anchor_hold", "step_records",
+           "step_transfer", "step_anchors", "anchor_lags", "anchored"]
 
 #: how long a step record holds the shape (t*): the cropped-delta basis at M 0.95, whose upstream acoustic waves
 #: settle slowest, matches the tone runs at k 0.05 / 0.1 to 0.05 % of the largest entry from 120 t* on (0.3 % at
@@ -38,6 +40,8 @@ __all__ = ["tone_amplitudes", "tone_records", "harmonic_anchors", "step_records"
 STEP_HOLD = 120.0
 #: cosine ramp of a step record (t*): smooth enough for the sub-step motion, short against the hold
 STEP_RAMP = 2.0
+#: longest step record (t*) a training may ask for
+STEP_HOLD_MAX = 2000.0
 
 
 def tone_amplitudes(x: np.ndarray, t: np.ndarray, omegas: np.ndarray) -> np.ndarray:
@@ -113,12 +117,16 @@ def harmonic_anchors(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndar
     return np.stack(cols, axis=2)  # [n_k, p, m]: column j from run j
 
 
+def check_anchor_hold(hold: Any, ramp: float = STEP_RAMP) -> float:
+    """Hold of a step record (t*), or InputError naming ``anchor_hold`` unless within [10 ramp, STEP_HOLD_MAX]."""
+    return check_number("anchor_hold", hold, 10.0 * ramp, strict=False, upper=STEP_HOLD_MAX, upper_strict=False)
+
+
 def step_records(shapes: np.ndarray, c_ref: float, hold: float = STEP_HOLD, dt_star: float = 0.1,
                  peak_fraction: float = 0.002, ramp: float = STEP_RAMP) -> list[np.ndarray]:
     """One record [T, m] per shape: that shape alone, raised by a cosine ramp over ``ramp`` t* until its peak
     surface displacement is ``peak_fraction`` c_ref, then held until ``hold`` t*."""
-    if not (math.isfinite(hold) and 10.0 * ramp <= hold <= 2000.0):
-        raise InputError("anchor_hold", f"must be in [{10.0 * ramp:g}, 2000] t*, got {hold!r}")
+    hold = check_anchor_hold(hold, ramp)
     t = np.arange(int(round(hold / dt_star)) + 1) * dt_star
     s = np.where(t < ramp, 0.5 * (1.0 - np.cos(np.pi * t / ramp)), 1.0)
     return _each_shape_alone(shapes, peak_fraction * c_ref * s)

@@ -19,7 +19,7 @@ from romams_core.aero.tsd import TsdSolver
 from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS
 from romams_core.aero.tsd.grid import GridSpec
 from romams_core.aero.tsd.solver import MIN_WING_COLUMNS_PER_SHAPE, check_thickness
-from romams_core.anchors import STEP_HOLD, anchored, check_anchor_k, step_anchors
+from romams_core.anchors import STEP_HOLD, anchored, check_anchor_hold, check_anchor_k, step_anchors
 from romams_core.arx import nrmse
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
@@ -96,7 +96,7 @@ def check_tsd_settings(n_shapes: int | None = None, *, thickness_form: str | Non
     check_number("low_k_corner", low_k_corner, 0.0, strict=False, upper=float(k_max), upper_strict=False)
     if anchors_on(anchor_k):
         check_anchor_k(cast(Sequence[float], anchor_k), float(k_max))
-        check_number("anchor_hold", anchor_hold, 20.0, strict=False, upper=2000.0, upper_strict=False)
+        check_anchor_hold(anchor_hold)
     if n_shapes is not None:
         columns = spec.n_chord * spec.n_span
         if columns < MIN_WING_COLUMNS_PER_SHAPE * n_shapes:
