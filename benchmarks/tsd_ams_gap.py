@@ -14,7 +14,9 @@ record (the basis ROM sees it through the projection), and the flutter points:
 - of ARX refits on the same TSD records at other orders (``--orders``; no new TSD run): how much of the spread is
   the identification.
 ``--out DIR`` keeps the trained ROMs (pickle) and the transfer tables (NPZ) for follow-up fits; ``--basis-from DIR``
-reuses the basis ROM kept there (same Mach and orders: it is the same training for every design).
+reuses the basis ROM kept there (same Mach and orders: it is the same training for every design). Both ROMs are
+plain (``anchor_k`` None), as in docs/transonic.md 7.2: the study is of the identification's low-k scatter, which
+the TSD training's default anchors (7.11) correct.
 
     python -m benchmarks.tsd_ams_gap [--design 2] [--mach 0.95] [--na 12] [--nb 12] [--k 0.05 0.1]
         [--orders 8 10 12 14 16] [--grid-scale 1.0] [--processes 2] [--out DIR] [--basis-from DIR]
@@ -144,7 +146,9 @@ def run(design: int = 2, mach: float = 0.95, na: int = 12, nb: int = 12, ks: tup
     """Train both ROMs, run the harmonic columns, compare (see the module docstring); a JSON-able dict."""
     t0 = time.perf_counter()
     wing, mesh, basis, modal = _setup(design)
-    options = {"grid_scale": grid_scale} if grid_scale != 1.0 else None
+    options: dict[str, Any] = {"anchor_k": None}  # plain ROMs (docs/transonic.md 7.2); the default is anchored
+    if grid_scale != 1.0:
+        options["grid_scale"] = grid_scale
     ident = {**rom_identity("tsd", na=na, nb=nb, options=options, wing=wing), "design": design}
     n_modes = modal.shapes.shape[1]
     kept = None

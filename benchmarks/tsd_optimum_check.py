@@ -15,7 +15,8 @@ Three jobs (basis ROM, own-mode ROM, direct runs) in ``--processes`` processes; 
     python -m benchmarks.tsd_optimum_check --mach 0.91 [--k 0.035 0.05 0.07] [--x X1 .. X7] --rom-dir DIR
 
 ``--reference V_EAS`` trains (or reads) only the basis ROM, with the product's identity (default anchors since
-2026-12-04), and gives its ROM-AMS flutter speed against that known TSD point (7.10: 132.38 m/s at M 0.95).
+2026-12-04), and gives its ROM-AMS flutter speed against that known TSD point (7.10: 132.38 m/s at M 0.95;
+``benchmarks.tsd_direct_flutter``: 132.15 m/s), plain and with the DLM projection residual (7.12).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from romams.services.training import rom_identity
 from romams_core.anchors import harmonic_anchors
 from romams_core.basis import project
 from romams_core.evaluate import evaluate_structure
+from romams_core.projection_residual import ResidualCorrection
 from romams_core.training_tsd import make_tsd_solver
 from romams_core.wing import cropped_delta
 
@@ -117,15 +119,18 @@ def basis_only(mach: float, x: tuple[float, ...], rom_dir: Path, reference: floa
     t0 = time.perf_counter()
     models, modal, ident = setup(x, options)
     (rom,) = pc.Trainer(1, rom_dir).roms(models.mesh, models.basis.shapes, [mach], ident)
-    res = evaluate_structure(modal, models.basis.shapes, {mach: (rom.ss, rom.c_ref)},
-                             zeta=models.wing.modal_damping).flutter[0]
+    res, corr = (evaluate_structure(modal, models.basis.shapes, {mach: (rom.ss, rom.c_ref)},
+                                    zeta=models.wing.modal_damping, residual=r).flutter[0]
+                 for r in (None, ResidualCorrection(models.mesh)))
     v = eas(res.q_flutter_pa) if res.flutter_found else None
+    v_corr = eas(corr.q_flutter_pa) if corr.flutter_found else None
     return {"mach": mach, "x": list(x), "rom_identity": ident, "states": int(rom.ss.n_states),
             "anchor_k": None if rom.anchor_k is None else [float(k) for k in rom.anchor_k],
             "anchor_band_error_pct": None if rom.anchor_band_error is None else 100 * rom.anchor_band_error,
             "validation_nrmse_pct": [100 * float(v) for v in rom.validation_nrmse], "train_seconds": rom.train_seconds,
             "v_eas_rom_ams": v, "omega_flutter_rad_s": res.omega_flutter_rad_s, "k_flutter": res.k_flutter,
             "flutter_mode": res.flutter_mode, "reference_v_eas": reference, "vs_tsd_pct": pct_error(v, reference),
+            "v_eas_rom_ams_dlm_residual": v_corr, "dlm_residual_vs_tsd_pct": pct_error(v_corr, reference),
             "warnings": list(rom.warnings), "wall_s": time.perf_counter() - t0}
 
 

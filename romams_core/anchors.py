@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import scipy.linalg as sla
@@ -28,8 +28,10 @@ import scipy.linalg as sla
 from romams_core.aero.protocol import ProgressFn, RecordsSolver, UnsteadySolver
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
-from romams_core.statespace import DiscreteSS
+from romams_core.statespace import ContinuousSS, DiscreteSS
 from romams_core.validation import check_number
+
+SS = TypeVar("SS", DiscreteSS, ContinuousSS)
 
 __all__ = ["tone_amplitudes", "tone_records", "harmonic_anchors", "check_anchor_hold", "step_records",
            "step_transfer", "step_anchors", "anchor_lags", "anchored"]
@@ -165,21 +167,33 @@ def anchor_lags(k: np.ndarray) -> np.ndarray:
     return np.geomspace(k.min(), 2.0 * k.max(), n) if n > 1 else np.array([k.min()])
 
 
-def anchored(ss: DiscreteSS, k: np.ndarray, gaf: np.ndarray, lags: np.ndarray | None = None) -> DiscreteSS:
-    """``ss`` with the parallel lag correction (module docstring) that reproduces ``gaf`` [n_k, p, m] at k exactly."""
+def anchored(ss: SS, k: np.ndarray, gaf: np.ndarray, lags: np.ndarray | None = None) -> SS:
+    """``ss`` with the parallel lag correction (module docstring) that reproduces ``gaf`` [n_k, p, m] at k exactly.
+
+    A continuous model (an RFA ROM, derivatives in t*) gets the same terms in continuous form: E_l s* / (s* + 2
+    beta_l), s* = 2 i k, realized by w' = -2 beta_l w + u, output E_l (u - 2 beta_l w)."""
     k = np.asarray(k, dtype=float)
     gaf = np.asarray(gaf)
     if gaf.shape != (k.size, ss.n_outputs, ss.n_inputs) or not np.all(np.isfinite(gaf)):
         raise InputError("anchor_gaf", f"expected finite [{k.size}, {ss.n_outputs}, {ss.n_inputs}], got {gaf.shape}")
     lags = anchor_lags(k) if lags is None else np.asarray(lags, dtype=float)
     m, p = ss.n_inputs, ss.n_outputs
-    z = np.exp(2j * k * ss.dt_star)
-    rho = np.exp(-2.0 * lags * ss.dt_star)
-    phi = np.column_stack([np.ones_like(z)] + [(z - 1.0) / (z - r) for r in rho])  # [K, L + 1]
+    if isinstance(ss, ContinuousSS):
+        s, a = 2j * k, 2.0 * lags
+        phi = np.column_stack([np.ones_like(s)] + [s / (s + r) for r in a])  # [K, L + 1]
+        poles, out_gain = -a, -a
+    else:
+        z = np.exp(2j * k * ss.dt_star)
+        rho = np.exp(-2.0 * lags * ss.dt_star)
+        phi = np.column_stack([np.ones_like(z)] + [(z - 1.0) / (z - r) for r in rho])
+        poles, out_gain = rho, rho - 1.0
     res = (gaf - ss.freqresp(k)).reshape(k.size, p * m)
     e = np.linalg.lstsq(np.vstack([phi.real, phi.imag]), np.vstack([res.real, res.imag]), rcond=None)[0]
-    e = e.reshape(rho.size + 1, p, m)
-    return DiscreteSS(A=sla.block_diag(ss.A, np.kron(np.diag(rho), np.eye(m))),
-                      B=np.vstack([ss.B] + [np.eye(m)] * rho.size),
-                      C=np.hstack([ss.C] + [(r - 1.0) * e[i + 1] for i, r in enumerate(rho)]),
-                      D=ss.D + e.sum(axis=0), dt_star=ss.dt_star)
+    e = e.reshape(lags.size + 1, p, m)
+    parts = dict(A=sla.block_diag(ss.A, np.kron(np.diag(poles), np.eye(m))),
+                 B=np.vstack([ss.B] + [np.eye(m)] * lags.size),
+                 C=np.hstack([ss.C] + [g * e[i + 1] for i, g in enumerate(out_gain)]),
+                 D=ss.D + e.sum(axis=0))
+    if isinstance(ss, ContinuousSS):
+        return ContinuousSS(**parts, D1=ss.D1, D2=ss.D2)  # type: ignore[return-value]
+    return DiscreteSS(**parts, dt_star=ss.dt_star)

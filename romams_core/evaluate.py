@@ -27,6 +27,7 @@ from romams_core.envelope import (
 )
 from romams_core.errors import InputError
 from romams_core.flutter import FlutterResult, flutter_batch
+from romams_core.projection_residual import ResidualCorrection
 from romams_core.statespace import to_modal
 
 
@@ -67,7 +68,7 @@ def evaluate_structure(modal: Any, basis_shapes: np.ndarray, roms: Mapping[float
 
     ``basis_shapes`` [N, m] are the basis the ROMs were trained on; ``options`` are the keywords of
     ``evaluate_structures`` (sweep, coupling, zeta, mac_threshold, benchmark, margin, altitude_range_m,
-    flutter_options). The batch of one. Returns a StructureEvaluation.
+    flutter_options, residual). The batch of one. Returns a StructureEvaluation.
     """
     return evaluate_structures([modal], basis_shapes, roms, **options)[0]
 
@@ -85,6 +86,7 @@ def evaluate_structures(
     margin: float = DEFAULT_MARGIN,
     altitude_range_m: tuple[float, float] = DEFAULT_ALTITUDE_RANGE_M,
     flutter_options: Mapping[str, Any] | None = None,
+    residual: ResidualCorrection | None = None,
 ) -> list[StructureEvaluation]:
     """Evaluate structures (each: .omega [k] rad/s, .shapes [N, k], .mass_kg) with ROMs {mach: rom}, together.
 
@@ -92,7 +94,8 @@ def evaluate_structures(
     search (e.g. altitude_ref_m, q_max, n_points). At every Mach the searches of all structures run as one
     batch (``flutter_batch``: one stacked eigen-solve per sweep step); the results equal one-at-a-time
     evaluations. Mach 0 (incompressible) always uses the constant-density sweep and is left out of the flight
-    envelope. Returns one StructureEvaluation per structure, in order.
+    envelope. ``residual``: add the modes' part outside the basis span by the DLM (``projection_residual``).
+    Returns one StructureEvaluation per structure, in order.
     """
     if not roms:
         raise InputError("roms", "need at least one Mach number")
@@ -111,6 +114,9 @@ def evaluate_structures(
             else opts
         k_band = getattr(by_mach[mach], "k_max", None)  # the identified band, when the ROM carries it
         designs = [(om, to_modal(ss, proj.gamma)) for om, _, proj in inputs]
+        if residual is not None:
+            designs = [(om, residual.apply(ss_m, np.asarray(m.shapes, dtype=float), inp[2].fitted, mach))
+                       for (om, ss_m), m, inp in zip(designs, modals, inputs, strict=True)]
         per_mach.append(flutter_batch(designs, c_ref, mach, sweep=sweep_m, coupling=coupling, zeta=zeta,
                                       k_band=None if k_band is None else float(k_band), **kw))
     return [_assemble(inputs[i], machs, [r[i] for r in per_mach], benchmark, margin, altitude_range_m,

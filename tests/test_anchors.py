@@ -17,7 +17,7 @@ from romams_core.anchors import (
     tone_amplitudes,
 )
 from romams_core.errors import InputError
-from romams_core.statespace import DiscreteSS
+from romams_core.statespace import ContinuousSS, DiscreteSS
 
 
 @dataclass
@@ -95,6 +95,20 @@ def test_anchored_model_meets_the_anchors_and_stays_close_elsewhere():
                                    np.eye(6) - fixed.A[off.n_states:, off.n_states:], fixed.B[off.n_states:]))
     same = anchored(off, k, off.freqresp(k))
     np.testing.assert_allclose(same.freqresp(k_all), off.freqresp(k_all), atol=1e-12 * np.abs(ref).max())
+
+
+def test_anchored_continuous_model_keeps_its_form_and_meets_the_anchors():
+    """An RFA-type continuous model (D1 term) anchored at k 0.05 / 0.1 / 0.3: exact there to 1e-12, still
+    continuous with D1 kept, stable (lag poles -2 beta), and unchanged at k = 0 but for E_0."""
+    rng = np.random.default_rng(3)
+    ss = ContinuousSS(A=-np.diag([0.2, 0.5, 1.0]), B=rng.standard_normal((3, 2)), C=rng.standard_normal((2, 3)),
+                      D=rng.standard_normal((2, 2)), D1=0.1 * np.eye(2))
+    k = np.array([0.05, 0.1, 0.3])
+    target = ss.freqresp(k) + 0.05 * (rng.standard_normal((3, 2, 2)) + 1j * rng.standard_normal((3, 2, 2)))
+    fixed = anchored(ss, k, target)
+    assert isinstance(fixed, ContinuousSS) and fixed.D1 is ss.D1 and fixed.is_stable()
+    assert fixed.n_states == ss.n_states + 5 * 2
+    np.testing.assert_allclose(fixed.freqresp(k), target, atol=1e-12 * np.abs(target).max())
 
 
 def test_anchor_lags_and_bad_anchors():

@@ -83,6 +83,7 @@ def test_flutter_rom_pms_and_matched_point(data_dir):
         (["--baseline", "--matched", "--density", "1.0"], "at most one"),
         (["--baseline", "--method", "dlm"], "--method"),
         (["--wing", "no-such-wing", "--baseline"], "no-such-wing"),
+        (["--baseline", "--projection-correction", "euler"], "--projection-correction"),
     ],
 )
 def test_flutter_bad_input_is_a_clear_usage_error(data_dir, args, fragment):

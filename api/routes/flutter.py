@@ -39,7 +39,8 @@ def _basis_and_roms(svc: Service, wid: int, basis_id: int | None, machs: list[fl
 def _condition(body: FlutterRequest | BatchRequest) -> FlightCondition:
     """The flight condition of a request (defaults where a field is absent)."""
     return FlightCondition.from_options(sweep=body.sweep, altitude_ref_m=body.altitude_ref_m, rho_ref=body.rho_ref,
-                                        v_max_m_s=body.v_max_m_s, q_max_pa=body.q_max_pa)
+                                        v_max_m_s=body.v_max_m_s, q_max_pa=body.q_max_pa,
+                                        projection_correction=body.projection_correction)
 
 
 def _design_vector(wing: Any, design: Any, field: str) -> list[float] | None:

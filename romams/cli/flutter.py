@@ -54,8 +54,14 @@ def external_modes(modes_file: Path, bdf: Path | None, nastran: dict[str, Any] |
 
 
 def flight_condition(density: float | None, altitude: float | None, matched: bool, sweep: str | None,
-                     v_max: float | None) -> FlightCondition:
+                     v_max: float | None, projection_correction: str | None = None) -> FlightCondition:
     """The flight condition from the CLI flags (default: the service's, constant speed at ISA 10 km)."""
+    if projection_correction is not None:
+        cond = flight_condition(density, altitude, matched, sweep, v_max)
+        try:
+            return FlightCondition.from_options(**{**cond.to_json(), "projection_correction": projection_correction})
+        except ServiceError as exc:
+            raise typer.BadParameter(exc.reason, param_hint="--projection-correction") from None
     given = sum(x is not None for x in (density, altitude, sweep)) + bool(matched)
     if given > 1 and not (altitude is not None and sweep is not None and given == 2):
         raise typer.BadParameter("give at most one of --density, --altitude, --matched, --sweep "
@@ -85,6 +91,8 @@ def flutter_command(
     matched: bool = typer.Option(False, "--matched", help="matched-point sweep: altitude with V = M a(h)"),
     sweep: str | None = typer.Option(None, "--sweep", help="constant-speed (default) | constant-density | matched"),
     v_max: float | None = typer.Option(None, "--v-max", help="top speed (m/s) of a constant-density sweep"),
+    projection_correction: str | None = typer.Option(None, "--projection-correction", help="none (default) | dlm: "
+                                                     "the modes' part outside the basis span by the DLM (ROM-AMS)"),
     basis_id: int | None = typer.Option(None, "--basis-id", help="basis to use (default: the wing's active one)"),
     method: str = typer.Option("rom-ams", "--method", help="rom-ams (basis ROM) or rom-pms (train on own modes)"),
     modes_file: Path | None = typer.Option(None, "--modes", help="external modes: JSON, NPZ, or Nastran OP2"),
@@ -129,7 +137,7 @@ def flutter_command(
         raise typer.BadParameter("must be in (0, 1)", param_hint="--mac")
     if plot_axis not in ("tas", "eas", "q"):
         raise typer.BadParameter(f"{plot_axis!r}: must be tas, eas or q", param_hint="--plot-axis")
-    condition = flight_condition(density, altitude, matched, sweep, v_max)
+    condition = flight_condition(density, altitude, matched, sweep, v_max, projection_correction)
     err = console(stderr=True)
     if design is not None and baseline:
         raise typer.BadParameter("give either --baseline or --design, not both", param_hint="--design")

@@ -95,8 +95,8 @@ def evaluate(models: Models, modal: Any, condition: FlightCondition = DEFAULT_CO
 
     ``own_modes`` (ROM-PMS): the ROMs were trained on this structure's own modes, so its shapes are the basis.
     """
-    shapes = modal.shapes if own_modes else models.basis.shapes
-    return evaluate_many(models, [modal], condition, benchmark=benchmark, shapes=shapes)[0]
+    return evaluate_many(models, [modal], condition, benchmark=benchmark,
+                         shapes=modal.shapes if own_modes else None)[0]
 
 
 def evaluate_many(models: Models, modals: Sequence[Any], condition: FlightCondition = DEFAULT_CONDITION, *,
@@ -104,17 +104,22 @@ def evaluate_many(models: Models, modals: Sequence[Any], condition: FlightCondit
     """StructureEvaluations of several structures with the basis ROMs of ``models``, their flutter searches run as
     one batch per Mach (``romams_core.evaluate.evaluate_structures``; equal to one-at-a-time evaluations).
 
-    ``shapes``: the basis the ROMs were trained on (default the models' basis). InvalidInput naming the field.
+    ``shapes``: the basis the ROMs were trained on (default the models' basis; given: the structure's own modes,
+    which need no projection correction). InvalidInput naming the field.
     """
     from romams_core.evaluate import evaluate_structures
+    from romams_core.projection_residual import ResidualCorrection
 
     roms = {float(m): r for m, (_, r) in models.roms.items()}
+    residual = None
+    if shapes is None and condition.projection_correction == "dlm":
+        residual = ResidualCorrection(models.mesh, getattr(models.wing, "symmetry", "symmetric"))
     try:
         return evaluate_structures(modals, models.basis.shapes if shapes is None else shapes, roms,
                                    sweep=condition.sweep, coupling=condition.coupling,
                                    zeta=damping_ratio(models.wing), benchmark=benchmark,
                                    mac_threshold=float(models.basis.mac_threshold),
-                                   flutter_options=condition.flutter_options())
+                                   flutter_options=condition.flutter_options(), residual=residual)
     except InputError as exc:
         raise from_input_error(exc) from exc
 

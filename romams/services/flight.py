@@ -16,10 +16,12 @@ from typing import Any
 from romams.services.errors import InvalidInput, from_input_error
 from romams_core.errors import InputError
 from romams_core.flutter import COUPLINGS, DEFAULT_ALTITUDE_REF_M, SWEEPS
+from romams_core.projection_residual import PROJECTION_CORRECTIONS
 from romams_core.validation import check_choice, check_number, finite_positive
 
 DEFAULT_SWEEP = "constant-speed"
 DEFAULT_COUPLING = "tustin"
+DEFAULT_PROJECTION_CORRECTION = "none"
 ALTITUDE_LIMITS_M = (0.0, 20_000.0)
 
 
@@ -33,11 +35,14 @@ class FlightCondition:
     v_max_m_s: float | None = None  # constant-density range (m/s); default from Mach or the structure
     q_max_pa: float | None = None  # constant-speed range (Pa); default 4 x q at the reference state
     coupling: str = DEFAULT_COUPLING
+    #: "dlm": the modes' part outside the basis span added by the DLM (romams_core.projection_residual)
+    projection_correction: str = DEFAULT_PROJECTION_CORRECTION
 
     def __post_init__(self) -> None:
         try:  # the core's validators; their typed errors become the service's InvalidInput (same field)
             check_choice("sweep", self.sweep, SWEEPS)
             check_choice("coupling", self.coupling, COUPLINGS)
+            check_choice("projection_correction", self.projection_correction, PROJECTION_CORRECTIONS)
             lo, hi = ALTITUDE_LIMITS_M
             alt = check_number("altitude_ref_m", self.altitude_ref_m, lo, strict=False, upper=hi, upper_strict=False)
             object.__setattr__(self, "altitude_ref_m", alt)

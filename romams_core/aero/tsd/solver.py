@@ -171,6 +171,7 @@ class TsdSolver:
     name: str = "tsd"
     record_threads: int | None = None
     symmetry: str = "symmetric"  # of the root plane: symmetric, antisymmetric or none (a free wing)
+    te_cells_per_step: float = TE_CELLS_PER_STEP  # the step cap in trailing-edge cells (``time_step``)
     last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -240,7 +241,7 @@ class TsdSolver:
         return mach
 
     def time_step(self, grid: TsdGrid) -> float:
-        """Internal time step (t*): ``dt``, capped at TE_CELLS_PER_STEP times the smallest trailing-edge cell.
+        """Internal time step (t*): ``dt``, capped at ``te_cells_per_step`` times the smallest trailing-edge cell.
 
         The sheared grid scales with the local chord, so a tapered wing's tip has small cells: on the cropped
         delta (taper 0.2, TE cells down to 0.0036 c_ref) dt 0.02 grew from a perturbed rest state and 0.011 decayed;
@@ -248,7 +249,7 @@ class TsdSolver:
         """
         i_te = int(np.flatnonzero(grid.xc < 1.0)[-1])
         te = (grid.xf[i_te + 1] - grid.xf[i_te]) * grid.chord(grid.yc[grid.strips]).min()
-        return float(min(self.dt, TE_CELLS_PER_STEP * te))
+        return float(min(self.dt, self.te_cells_per_step * te))
 
     def n_sub_at(self, mach: float) -> int:
         """Sub-iterations per time step at ``mach``."""
