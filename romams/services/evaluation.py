@@ -316,5 +316,9 @@ def summarize(result: Any, models: Models, condition: FlightCondition = DEFAULT_
         bad = [i + 1 for i, m in enumerate(np.asarray(result.mac)) if m < limit]
         out["warning"] = (f"modes {bad} fit the basis with MAC < {limit:.6g} (worst "
                           f"{min_mac:.5f}): estimated flutter-speed error {100.0 * est:.1f} % (the basis was "
-                          f"validated for {100.0 * VALIDATED_ERROR:g} %); verify with method rom-pms")
+                          f"validated for {100.0 * VALIDATED_ERROR:g} %); "
+                          + ("the DLM projection residual is added (projection_correction dlm)"
+                             if condition.projection_correction == "dlm" else
+                             "verify with method rom-pms, or add the DLM projection residual "
+                             "(projection_correction dlm)"))
     return to_jsonable(out)

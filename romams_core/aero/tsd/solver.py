@@ -43,8 +43,11 @@ MAX_THICKNESS_TO_CHORD = 0.15
 MIN_MACH = 0.4
 
 
-#: the near-wake coupling is explicit: the stable step is about this many trailing-edge cells (root chords)
-TE_CELLS_PER_STEP = 3.0
+#: the near-wake coupling is explicit: the stable step is about this many trailing-edge cells (root chords).
+#: Re-measured with the wake delay from the last wing node (docs/transonic.md 7.5, ``benchmarks.tsd_step_cap``):
+#: on the cropped delta a perturbed rest state decays at 3.73 cells (M 0.6 / 0.87 / 0.95, 60 t*) and grows at
+#: 4.35 (M 0.87, 5 t*); step records at 3.73 and 2.9 cells agree to 0.01 % of the largest entry up to k 0.5
+TE_CELLS_PER_STEP = 3.75
 
 
 def sub_iterations(mach: float) -> int:
@@ -244,8 +247,9 @@ class TsdSolver:
         """Internal time step (t*): ``dt``, capped at ``te_cells_per_step`` times the smallest trailing-edge cell.
 
         The sheared grid scales with the local chord, so a tapered wing's tip has small cells: on the cropped
-        delta (taper 0.2, TE cells down to 0.0036 c_ref) dt 0.02 grew from a perturbed rest state and 0.011 decayed;
-        on AGARD 445.6 (smallest 0.012) 0.02 is stable.
+        delta (taper 0.2, TE cells down to 0.0038 c_ref) dt 0.0167 grew from a perturbed rest state and 0.0143
+        decayed (7 internal steps per 0.1 t* signal step instead of 9 at the earlier 3 cells); on AGARD 445.6
+        (smallest 0.012) 0.02 is stable.
         """
         i_te = int(np.flatnonzero(grid.xc < 1.0)[-1])
         te = (grid.xf[i_te + 1] - grid.xf[i_te]) * grid.chord(grid.yc[grid.strips]).min()
