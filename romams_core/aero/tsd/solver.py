@@ -45,8 +45,8 @@ MIN_MACH = 0.4
 
 #: the near-wake coupling is explicit: the stable step is about this many trailing-edge cells (root chords).
 #: Re-measured with the wake delay from the last wing node (docs/transonic.md 7.5, ``benchmarks.tsd_step_cap``):
-#: on the cropped delta a perturbed rest state decays at 3.73 cells (M 0.6 / 0.87 / 0.95, 60 t*) and grows at
-#: 4.35 (M 0.87, 5 t*); step records at 3.73 and 2.9 cells agree to 0.01 % of the largest entry up to k 0.5
+#: on the cropped delta a perturbed rest state decays at 3.72 cells (M 0.6 / 0.87 / 0.95, 60 t*) and grows at
+#: 4.35 (M 0.87, 5 t*); step records at 3.72 and 2.90 cells agree to 0.01 % of the largest entry up to k 0.5
 TE_CELLS_PER_STEP = 3.75
 
 
