@@ -12,7 +12,10 @@ set of runs gives, on a k grid from 0 to ``--k-max``:
   (right) from the force integration (left).
 
 The difference between ``direct`` and ``projected`` is the projection error of ROM-AMS on this design, free of
-identification error. Default design: the paper case's TSD optimum (``tsd_optimum_check.TSD_OPTIMUM``).
+identification error. The DLM's transfer matrix of the same shapes (``DLM_K``, seconds) gives the DLM's own
+``dlm_direct`` / ``dlm_projected`` points and ``hybrid``: the TSD's projected matrix plus the DLM's residual
+G_dlm(Phi) - G_dlm(Phi_fit), what ``projection_correction: dlm`` adds (docs/transonic.md 7.12).
+Default design: the paper case's TSD optimum (``tsd_optimum_check.TSD_OPTIMUM``).
 
     python -m benchmarks.tsd_direct_flutter --mach 0.95 [--x X1 .. X7] [--hold 120] [--out DIR]
 """
@@ -29,10 +32,14 @@ import numpy as np
 
 from benchmarks.tsd_ams_gap import pk_point
 from benchmarks.tsd_optimum_check import SOLVER_OPTIONS, TSD_OPTIMUM, setup
+from romams_core.aero.dlm import frequency_response
 from romams_core.anchors import STEP_HOLD, step_anchors
 from romams_core.basis import project
 from romams_core.pk import AeroTable
 from romams_core.training_tsd import make_tsd_solver
+
+#: the DLM's reduced frequencies for the hybrid tables (the TSD tables are interpolated onto them)
+DLM_K = np.concatenate([[0.0, 0.005], np.arange(0.01, 0.2, 0.01), np.arange(0.2, 1.01, 0.05)])
 
 
 def transfer_table(x: tuple[float, ...], mach: float, k: np.ndarray, hold: float, out: Path | None
@@ -68,13 +75,23 @@ def run(mach: float, x: tuple[float, ...], hold: float = STEP_HOLD, k_max: float
               "mixed": gaf[:, :n, n:] @ gamma}
     zeta = models.wing.modal_damping
     c_ref = models.mesh.c_ref
+    dlm = frequency_response(models.mesh, np.hstack([modal.shapes, models.basis.shapes]), mach, DLM_K)
+    dlm_direct, dlm_projected = dlm[:, :n, :n], np.einsum("bi,kbc,cj->kij", gamma, dlm[:, n:, n:], gamma)
+    on_dlm_k = {name: AeroTable(k, tables[name])(DLM_K) for name in ("direct", "projected")}
+    dlm_tables = {"dlm_direct": dlm_direct, "dlm_projected": dlm_projected,
+                  "hybrid": on_dlm_k["projected"] + dlm_direct - dlm_projected}
     res: dict[str, Any] = {"mach": mach, "x": list(x), "hold": hold, "k_max": k_max, "dk": dk,
                            "omega": [float(w) for w in modal.omega], "n_basis": int(models.basis.n_basis),
                            "mac": [float(v) for v in proj.mac], "flutter": {}, "entries": []}
     for name, h in tables.items():
         res["flutter"][name] = pk_point(AeroTable(k, h), modal.omega, c_ref, mach, zeta)
+    for name, h in dlm_tables.items():
+        res["flutter"][name] = pk_point(AeroTable(DLM_K, h), modal.omega, c_ref, mach, zeta)
+    i = int(np.argmin(np.abs(DLM_K - 0.06)))
+    res["hybrid_err_of_max_pct_k006"] = float(100 * np.abs(dlm_tables["hybrid"][i] - on_dlm_k["direct"][i]).max()
+                                              / np.abs(on_dlm_k["direct"][i]).max())
     v_direct = res["flutter"]["direct"]["v_eas"]
-    for name in ("projected", "mixed"):
+    for name in ("projected", "mixed", "hybrid"):
         v = res["flutter"][name]["v_eas"]
         res["flutter"][f"{name}_vs_direct_pct"] = None if v is None or v_direct is None else 100 * (v / v_direct - 1)
     scale = np.abs(tables["direct"]).max(axis=(1, 2))
