@@ -143,9 +143,9 @@ class FlightFields(_Strict):
                                           "(m/s; default 3 M a_ref, or from the structure at Mach 0)")
     q_max_pa: FiniteFloat | None = Field(default=None, gt=0.0, description="constant-speed sweep: top dynamic "
                                                                            "pressure (Pa; default 4 q_ref)")
-    projection_correction: Literal["none", "dlm"] | None = Field(
-        default=None, description="none (default) | dlm: add the part of the modes outside the basis span by the "
-        "doublet-lattice method (ROM-AMS; docs/transonic.md 7.12)")
+    projection_correction: Literal["auto", "none", "dlm"] | None = Field(
+        default=None, description="auto (default: dlm on TSD ROMs, none otherwise) | none | dlm: add the part of the "
+        "modes outside the basis span by the doublet-lattice method (ROM-AMS; docs/transonic.md 7.12)")
 
 
 SOLVER_CHOICE = ("aerodynamic solver whose ROMs to use: dlm, uvlm, tsd, or external:<label> for an imported GAF table "

@@ -29,8 +29,8 @@ from romams_core.mesh import StandardMesh
 
 __all__ = ["PROJECTION_CORRECTIONS", "RESIDUAL_K", "ResidualCorrection", "residual_gaf"]
 
-#: the evaluation's choices: no correction, or the DLM's residual
-PROJECTION_CORRECTIONS = ("none", "dlm")
+#: the evaluation's choices: auto (the DLM's residual on TSD ROMs, none on the linear solvers' ROMs), none, dlm
+PROJECTION_CORRECTIONS = ("auto", "none", "dlm")
 #: reduced frequencies (on c_ref / 2) where the correction is exact. Fitted on the paper case's optimum at M 0.95:
 #: the lag realization through 0.05 / 0.1 / 0.3 stays within 0.47 % of the largest entry of the residual over
 #: k 0-0.5 (0.025 / 0.05 / 0.1: 0.85 %; one anchor at 0.1: 1.5 %)

@@ -58,9 +58,9 @@ def test_dlm_residual_recovers_the_own_mode_flutter_point(coarse: tuple, design:
 
 
 def test_condition_validates_the_choice() -> None:
-    """The flight condition accepts none / dlm and names the field otherwise."""
+    """The flight condition accepts auto / none / dlm (default auto) and names the field otherwise."""
     assert FlightCondition.from_options(projection_correction="dlm").projection_correction == "dlm"
-    assert FlightCondition().projection_correction == "none"
+    assert FlightCondition().projection_correction == "auto"
     with pytest.raises(InvalidInput) as exc:
         FlightCondition.from_options(projection_correction="euler")
     assert exc.value.field == "projection_correction"

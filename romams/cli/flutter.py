@@ -91,8 +91,9 @@ def flutter_command(
     matched: bool = typer.Option(False, "--matched", help="matched-point sweep: altitude with V = M a(h)"),
     sweep: str | None = typer.Option(None, "--sweep", help="constant-speed (default) | constant-density | matched"),
     v_max: float | None = typer.Option(None, "--v-max", help="top speed (m/s) of a constant-density sweep"),
-    projection_correction: str | None = typer.Option(None, "--projection-correction", help="none (default) | dlm: "
-                                                     "the modes' part outside the basis span by the DLM (ROM-AMS)"),
+    projection_correction: str | None = typer.Option(None, "--projection-correction", help="auto (default: dlm on "
+                                                     "TSD ROMs) | none | dlm: the modes' part outside the basis "
+                                                     "span by the DLM (ROM-AMS)"),
     basis_id: int | None = typer.Option(None, "--basis-id", help="basis to use (default: the wing's active one)"),
     method: str = typer.Option("rom-ams", "--method", help="rom-ams (basis ROM) or rom-pms (train on own modes)"),
     modes_file: Path | None = typer.Option(None, "--modes", help="external modes: JSON, NPZ, or Nastran OP2"),

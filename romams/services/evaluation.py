@@ -99,6 +99,16 @@ def evaluate(models: Models, modal: Any, condition: FlightCondition = DEFAULT_CO
                          shapes=modal.shapes if own_modes else None)[0]
 
 
+def projection_choice(condition: FlightCondition, roms: Mapping[float, tuple[int, Any]]) -> str:
+    """none | dlm for ROM-AMS with ``roms`` ({mach: (id, TrainedRom)}): "auto" adds the DLM residual to TSD ROMs,
+    where an exact ROM-AMS was measured 1.3 % above the TSD's own flutter point (docs/transonic.md 7.12), and not
+    to the linear solvers' ROMs, whose default basis stays within 0.3 % (and whose evaluations must stay fast)."""
+    if condition.projection_correction != "auto":
+        return condition.projection_correction
+    solvers = {str(getattr(rom, "solver", "")) for _, rom in roms.values()}
+    return "dlm" if solvers == {"tsd"} else "none"
+
+
 def evaluate_many(models: Models, modals: Sequence[Any], condition: FlightCondition = DEFAULT_CONDITION, *,
                   benchmark: Any = None, shapes: Any = None) -> list[Any]:
     """StructureEvaluations of several structures with the basis ROMs of ``models``, their flutter searches run as
@@ -112,7 +122,7 @@ def evaluate_many(models: Models, modals: Sequence[Any], condition: FlightCondit
 
     roms = {float(m): r for m, (_, r) in models.roms.items()}
     residual = None
-    if shapes is None and condition.projection_correction == "dlm":
+    if shapes is None and projection_choice(condition, models.roms) == "dlm":
         residual = ResidualCorrection(models.mesh, getattr(models.wing, "symmetry", "symmetric"))
     try:
         return evaluate_structures(modals, models.basis.shapes if shapes is None else shapes, roms,
@@ -285,6 +295,7 @@ def summarize(result: Any, models: Models, condition: FlightCondition = DEFAULT_
     min_mac = float(result.min_mac)
     est = fit_error_estimate(min_mac) if method == "rom-ams" else 0.0
     fit_ok = bool(result.mac_ok)
+    applied = projection_choice(condition, models.roms) if method == "rom-ams" else "none"
     rows = [result_row(r, env, *_rom_entry(models, r.mach)) for r in result.flutter]
     out = {
         "wing": models.wing.name,
@@ -293,7 +304,8 @@ def summarize(result: Any, models: Models, condition: FlightCondition = DEFAULT_
         "basis_id": int(models.basis_id),
         "n_basis": int(models.basis.n_basis),
         "mac_threshold": float(models.basis.mac_threshold),
-        "flight_condition": {**condition.to_json(), "damping_ratio": damping_ratio(models.wing) or 0.0,
+        "flight_condition": {**condition.to_json(), "projection_correction_applied": applied,
+                             "damping_ratio": damping_ratio(models.wing) or 0.0,
                              "speeds": "v_flutter_m_s = v_true_m_s: true airspeed at the flutter point; "
                                        "v_eas_m_s: equivalent airspeed at ISA sea-level density"},
         "mass_kg": None if external and not (mass and mass > 0) else mass,
@@ -318,7 +330,7 @@ def summarize(result: Any, models: Models, condition: FlightCondition = DEFAULT_
                           f"{min_mac:.5f}): estimated flutter-speed error {100.0 * est:.1f} % (the basis was "
                           f"validated for {100.0 * VALIDATED_ERROR:g} %); "
                           + ("the DLM projection residual is added (projection_correction dlm)"
-                             if condition.projection_correction == "dlm" else
+                             if applied == "dlm" else
                              "verify with method rom-pms, or add the DLM projection residual "
                              "(projection_correction dlm)"))
     return to_jsonable(out)

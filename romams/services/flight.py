@@ -21,7 +21,7 @@ from romams_core.validation import check_choice, check_number, finite_positive
 
 DEFAULT_SWEEP = "constant-speed"
 DEFAULT_COUPLING = "tustin"
-DEFAULT_PROJECTION_CORRECTION = "none"
+DEFAULT_PROJECTION_CORRECTION = "auto"
 ALTITUDE_LIMITS_M = (0.0, 20_000.0)
 
 
@@ -35,7 +35,8 @@ class FlightCondition:
     v_max_m_s: float | None = None  # constant-density range (m/s); default from Mach or the structure
     q_max_pa: float | None = None  # constant-speed range (Pa); default 4 x q at the reference state
     coupling: str = DEFAULT_COUPLING
-    #: "dlm": the modes' part outside the basis span added by the DLM (romams_core.projection_residual)
+    #: "dlm": the modes' part outside the basis span added by the DLM (romams_core.projection_residual); "auto":
+    #: dlm on TSD ROMs, none on the linear solvers' (services.evaluation.projection_choice)
     projection_correction: str = DEFAULT_PROJECTION_CORRECTION
 
     def __post_init__(self) -> None:

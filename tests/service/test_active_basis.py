@@ -104,10 +104,13 @@ def test_bad_flight_condition_and_basis_input(svc):
 
 def test_projection_correction_through_the_api(svc):
     """projection_correction "dlm" is carried into the result's flight condition and moves the ROM-AMS point a
-    little (the default basis fits the design to MAC 0.9999: well under 2 %), the default stays "none"."""
+    little (the default basis fits the design to MAC 0.9999: well under 2 %); the default "auto" applies nothing
+    to DLM ROMs."""
     plain, corrected = _evaluate(svc), _evaluate(svc, projection_correction="dlm")
-    assert plain["flight_condition"]["projection_correction"] == "none"
+    assert plain["flight_condition"]["projection_correction"] == "auto"  # on DLM ROMs: none
+    assert plain["flight_condition"]["projection_correction_applied"] == "none"
     assert corrected["flight_condition"]["projection_correction"] == "dlm"
+    assert corrected["flight_condition"]["projection_correction_applied"] == "dlm"
     for a, b in zip(plain["results"], corrected["results"], strict=True):
         assert a["q_flutter_pa"] != b["q_flutter_pa"]
         assert b["q_flutter_pa"] == pytest.approx(a["q_flutter_pa"], rel=0.02)
