@@ -34,7 +34,7 @@ from romams_core.validation import check_number
 SS = TypeVar("SS", DiscreteSS, ContinuousSS)
 
 __all__ = ["tone_amplitudes", "tone_records", "harmonic_anchors", "check_anchor_hold", "step_records",
-           "step_transfer", "step_anchors", "anchor_lags", "anchored"]
+           "step_transfer", "step_anchors", "anchor_lags", "anchored", "with_lag_terms"]
 
 #: how long a step record holds the shape (t*): the cropped-delta basis at M 0.95, whose upstream acoustic waves
 #: settle slowest, matches the tone runs at k 0.05 / 0.1 to 0.05 % of the largest entry from 120 t* on (0.3 % at
@@ -168,14 +168,20 @@ def anchor_lags(k: np.ndarray) -> np.ndarray:
 
 
 def anchored(ss: SS, k: np.ndarray, gaf: np.ndarray, lags: np.ndarray | None = None) -> SS:
-    """``ss`` with the parallel lag correction (module docstring) that reproduces ``gaf`` [n_k, p, m] at k exactly.
-
-    A continuous model (an RFA ROM, derivatives in t*) gets the same terms in continuous form: E_l s* / (s* + 2
-    beta_l), s* = 2 i k, realized by w' = -2 beta_l w + u, output E_l (u - 2 beta_l w)."""
+    """``ss`` with the parallel lag correction (module docstring) that reproduces ``gaf`` [n_k, p, m] at k exactly."""
     k = np.asarray(k, dtype=float)
     gaf = np.asarray(gaf)
     if gaf.shape != (k.size, ss.n_outputs, ss.n_inputs) or not np.all(np.isfinite(gaf)):
         raise InputError("anchor_gaf", f"expected finite [{k.size}, {ss.n_outputs}, {ss.n_inputs}], got {gaf.shape}")
+    return with_lag_terms(ss, k, gaf - ss.freqresp(k), lags)
+
+
+def with_lag_terms(ss: SS, k: np.ndarray, residual: np.ndarray, lags: np.ndarray | None = None) -> SS:
+    """``ss`` plus the lag terms (module docstring) equal to ``residual`` [n_k, p, m] at the reduced frequencies k.
+
+    A continuous model (an RFA ROM, derivatives in t*) gets the same terms in continuous form: E_l s* / (s* + 2
+    beta_l), s* = 2 i k, realized by w' = -2 beta_l w + u, output E_l (u - 2 beta_l w)."""
+    k = np.asarray(k, dtype=float)
     lags = anchor_lags(k) if lags is None else np.asarray(lags, dtype=float)
     m, p = ss.n_inputs, ss.n_outputs
     if isinstance(ss, ContinuousSS):
@@ -187,7 +193,7 @@ def anchored(ss: SS, k: np.ndarray, gaf: np.ndarray, lags: np.ndarray | None = N
         rho = np.exp(-2.0 * lags * ss.dt_star)
         phi = np.column_stack([np.ones_like(z)] + [(z - 1.0) / (z - r) for r in rho])
         poles, out_gain = rho, rho - 1.0
-    res = (gaf - ss.freqresp(k)).reshape(k.size, p * m)
+    res = np.asarray(residual).reshape(k.size, p * m)
     e = np.linalg.lstsq(np.vstack([phi.real, phi.imag]), np.vstack([res.real, res.imag]), rcond=None)[0]
     e = e.reshape(lags.size + 1, p, m)
     parts = dict(A=sla.block_diag(ss.A, np.kron(np.diag(poles), np.eye(m))),

@@ -11,9 +11,10 @@ ROM here:
 
     dG(k) = G_dlm(Phi, k) - G_dlm(Phi_fit, k)
 
-at a few reduced frequencies, and added to the modal ROM by the parallel lag realization of ``anchors.anchored``
-(the corrected model reproduces G_rom + dG exactly at those k). On the paper case's optimum the TSD's residual
-and the DLM's agree to 0.09 % of the largest entry (flutter +0.15 % of the TSD point instead of +1.32 %).
+at a few reduced frequencies, and added to the modal ROM by the parallel lag realization of the anchors
+(``anchors.with_lag_terms``: the corrected model reproduces G_rom + dG exactly at those k). On the paper case's
+optimum the TSD's residual and the DLM's agree to 0.09 % of the largest entry (flutter +0.15 % of the TSD point
+instead of +1.32 %).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from romams_core.aero.dlm import frequency_response
-from romams_core.anchors import SS, anchored
+from romams_core.anchors import SS, with_lag_terms
 from romams_core.mesh import StandardMesh
 
 __all__ = ["PROJECTION_CORRECTIONS", "RESIDUAL_K", "ResidualCorrection", "residual_gaf"]
@@ -55,7 +56,6 @@ class ResidualCorrection:
 
     def apply(self, ss_modal: SS, shapes: np.ndarray, fitted: np.ndarray, mach: float) -> SS:
         """The modal ROM ``ss_modal`` (discrete or continuous; inputs/outputs: the modes) plus the residual's DLM
-        GAF, by lag states (``anchors.anchored``)."""
+        GAF, by lag states (``anchors.with_lag_terms``)."""
         k = np.asarray(self.k, dtype=float)
-        delta = residual_gaf(self.mesh, shapes, fitted, mach, k, self.symmetry)
-        return anchored(ss_modal, k, ss_modal.freqresp(k) + delta)
+        return with_lag_terms(ss_modal, k, residual_gaf(self.mesh, shapes, fitted, mach, k, self.symmetry))

@@ -6,6 +6,7 @@ same numbers, same JSON keys. What it adds is local: the basis is built and the 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -29,8 +30,6 @@ NASTRAN_HINTS = {"subcase": "--subcase", "modes": "--op2-modes", "n_modes": "--o
 def external_modes(modes_file: Path, bdf: Path | None, nastran: dict[str, Any] | None = None,
                    spline: str = "auto") -> Any:
     """ExternalModes read from a JSON, NPZ or Nastran OP2 (+ BDF) file; ``nastran``: NastranOptions fields."""
-    import dataclasses
-
     from romams.cli.wing import bad_input
     from romams_core import modes_io
 
@@ -56,12 +55,18 @@ def external_modes(modes_file: Path, bdf: Path | None, nastran: dict[str, Any] |
 def flight_condition(density: float | None, altitude: float | None, matched: bool, sweep: str | None,
                      v_max: float | None, projection_correction: str | None = None) -> FlightCondition:
     """The flight condition from the CLI flags (default: the service's, constant speed at ISA 10 km)."""
-    if projection_correction is not None:
-        cond = flight_condition(density, altitude, matched, sweep, v_max)
-        try:
-            return FlightCondition.from_options(**{**cond.to_json(), "projection_correction": projection_correction})
-        except ServiceError as exc:
-            raise typer.BadParameter(exc.reason, param_hint="--projection-correction") from None
+    cond = _sweep_condition(density, altitude, matched, sweep, v_max)
+    if projection_correction is None:
+        return cond
+    try:
+        return dataclasses.replace(cond, projection_correction=projection_correction)  # validated on construction
+    except ServiceError as exc:
+        raise typer.BadParameter(exc.reason, param_hint="--projection-correction") from None
+
+
+def _sweep_condition(density: float | None, altitude: float | None, matched: bool, sweep: str | None,
+                     v_max: float | None) -> FlightCondition:
+    """The sweep part of the flight condition from the CLI flags."""
     given = sum(x is not None for x in (density, altitude, sweep)) + bool(matched)
     if given > 1 and not (altitude is not None and sweep is not None and given == 2):
         raise typer.BadParameter("give at most one of --density, --altitude, --matched, --sweep "
