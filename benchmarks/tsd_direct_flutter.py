@@ -52,10 +52,8 @@ def transfer_table(x: tuple[float, ...], mach: float, k: np.ndarray, hold: float
         if np.array_equal(kept["k"], k):
             return kept["gaf"], models, modal
     shapes = np.hstack([modal.shapes, models.basis.shapes])
-    opts = ident["options"]
-    solver = make_tsd_solver(**{key: v for key, v in opts.items() if key in SOLVER_OPTIONS})
-    gaf = step_anchors(solver, models.mesh, shapes, mach, k, float(ident.get("dt_star", 0.1)),
-                       float(opts.get("displacement_fraction", 0.002)), hold)
+    solver = make_tsd_solver(**{key: v for key, v in ident["options"].items() if key in SOLVER_OPTIONS})
+    gaf = step_anchors(solver, models.mesh, shapes, mach, k, hold=hold)  # the training's signal step and amplitude
     if path is not None:
         out.mkdir(parents=True, exist_ok=True)
         np.savez(path, k=k, gaf=gaf)
