@@ -56,9 +56,11 @@ from romams.services.evaluation import (  # noqa: E402
     pms_summary,
     structure_modal,
 )
+from romams.services.flight import DEFAULT_CONDITION, FlightCondition  # noqa: E402
 from romams.services.training import SOLVERS, rom_identity  # noqa: E402
 from romams_core.basis import Basis, build_basis_for_wing, mac, snapshot  # noqa: E402
 from romams_core.mesh import standard_mesh  # noqa: E402
+from romams_core.projection_residual import PROJECTION_CORRECTIONS  # noqa: E402
 from romams_core.training import TrainingError, with_minimal_realization  # noqa: E402
 from romams_core.wing import WingDefinition, cropped_delta  # noqa: E402
 
@@ -99,9 +101,11 @@ class InProcessService:
     """The part of ``client.RomamsClient`` that ``FlutterProblem`` calls, answered in process by the evaluation
     use case (the same JSON summaries as the API's, designs the structure model rejects as ``{"error": ...}``)."""
 
-    def __init__(self, models: Models, cache: Memo | None = None) -> None:
+    def __init__(self, models: Models, cache: Memo | None = None, condition: FlightCondition = DEFAULT_CONDITION
+                 ) -> None:
         self.models = models
         self.cache = cache or Memo()
+        self.condition = condition
 
     def get_wing(self, _ref: Any) -> dict[str, Any]:
         """Id, design variables (bounds in their own units) and trained Machs of the wing."""
@@ -111,7 +115,7 @@ class InProcessService:
     def evaluate(self, _wing: Any, design: Any, **_: Any) -> dict[str, Any]:
         """JSON summary of one design (None: the baseline) at every trained Mach."""
         d = None if design is None else np.asarray(design, dtype=float).tolist()
-        return evaluate_structure_summary(self.models, design=d, cache=self.cache)[0]
+        return evaluate_structure_summary(self.models, design=d, cache=self.cache, condition=self.condition)[0]
 
     def evaluate_batch(self, wing: Any, designs: Any, **_: Any) -> list[dict[str, Any]]:
         """Summaries of designs [n, d] in order (per-design errors as the worker reports them)."""
@@ -270,11 +274,12 @@ def structure_record(summary: Mapping[str, Any]) -> dict[str, Any]:
             "flutter": flutter_rows(summary)}
 
 
-def ams_and_pms(models: Models, design: Any, ident: Mapping[str, Any], cache: Memo, trainer: Trainer = Trainer()
-                ) -> tuple[dict, dict, Any, Any]:
-    """(ROM-AMS summary, ROM-PMS summary, ROM-AMS result, modal) of one design at the Machs of ``models``."""
+def ams_and_pms(models: Models, design: Any, ident: Mapping[str, Any], cache: Memo, trainer: Trainer = Trainer(),
+                condition: FlightCondition = DEFAULT_CONDITION) -> tuple[dict, dict, Any, Any]:
+    """(ROM-AMS summary, ROM-PMS summary, ROM-AMS result, modal) of one design at the Machs of ``models``
+    (``condition``: its projection_correction applies to ROM-AMS only)."""
     modal = structure_modal(models, design)
-    ams, ams_result = evaluate_structure_summary(models, design=design, cache=cache)
+    ams, ams_result = evaluate_structure_summary(models, design=design, cache=cache, condition=condition)
     pms, _ = pms_summary(models, modal, own_roms(models, modal.shapes, ident, trainer), cache=cache)
     return ams, pms, ams_result, modal
 
@@ -290,15 +295,15 @@ def contrasting_pair(wing: WingDefinition, basis: Basis) -> tuple[int, int, floa
     return best
 
 
-def table5(models: Models, ident: Mapping[str, Any], cache: Memo, trainer: Trainer = Trainer()
-           ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+def table5(models: Models, ident: Mapping[str, Any], cache: Memo, trainer: Trainer = Trainer(),
+           condition: FlightCondition = DEFAULT_CONDITION) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Table 5: ROM-AMS vs ROM-PMS at M 0.87 of the two most contrasting basis samples (var1, var2)."""
     at = models_at(models, [TABLE5_MACH])
     i, j, pair_mac = contrasting_pair(models.wing, models.basis)
     rows = []
     for name, k in (("var1", i), ("var2", j)):
         x = models.basis.designs[k].tolist()
-        ams, pms, _, _ = ams_and_pms(at, x, ident, cache, trainer)
+        ams, pms, _, _ = ams_and_pms(at, x, ident, cache, trainer, condition)
         paper = PAPER_TABLE5[name]
         row = {"design": name, "lhs_sample": k, "x": dict(zip(models.wing.variable_names, x, strict=True)),
                **comparison_rows(ams, pms)[0], "mac": ams["mac"], "frequencies_hz": ams["frequencies_hz"],
@@ -388,7 +393,8 @@ def write_plots(out: Path, problem: Any, run_: dict[str, Any], baseline: dict[st
 def run(*, solver: str = "dlm", generations: int = EX.PAPER_GENERATIONS, popsize: int = EX.PAPER_NP, seed: int = 0,
         machs: Sequence[float] = EX.PAPER_MACHS, samples: int = 25, mac_threshold: float = 0.9999,
         max_basis: int = 12, train_options: Mapping[str, Any] | None = None, beam_placement: str = "eccentric",
-        plot_dir: Path | None = None, processes: int = 1, rom_dir: Path | None = None) -> dict[str, Any]:
+        plot_dir: Path | None = None, processes: int = 1, rom_dir: Path | None = None,
+        projection_correction: str = "auto") -> dict[str, Any]:
     """The whole case; returns the JSON-able result (keys: table5, table7, table8, fixed_mode_shapes_error_pct,
     mass_reduction_pct, optimum, settings, timings, paper ...)."""
     if TABLE5_MACH not in [float(m) for m in machs]:
@@ -399,17 +405,18 @@ def run(*, solver: str = "dlm", generations: int = EX.PAPER_GENERATIONS, popsize
     trainer = Trainer(processes, rom_dir)
     models, basis_info = build_models(wing, machs, ident, samples, mac_threshold, max_basis, trainer=trainer)
     cache = Memo()
+    condition = FlightCondition.from_options(projection_correction=projection_correction)
     t0 = time.perf_counter()
-    t5, pair = table5(models, ident, cache, trainer)
+    t5, pair = table5(models, ident, cache, trainer, condition)
     t_table5 = time.perf_counter() - t0
     log(f"Table 5 ({t_table5:.1f} s): " + ", ".join(f"{r['design']} {r['error_pct']}" for r in t5))
-    service = InProcessService(models, cache)
+    service = InProcessService(models, cache, condition)
     t0 = time.perf_counter()
     problem, de, baseline = optimize(service, generations, popsize, seed)
     t_de = time.perf_counter() - t0
     x_opt = de["x"]
     t0 = time.perf_counter()
-    ams, pms, _, modal_opt = ams_and_pms(models, x_opt, ident, cache, trainer)
+    ams, pms, _, modal_opt = ams_and_pms(models, x_opt, ident, cache, trainer, condition)
     t8 = with_paper_table8(comparison_rows(ams, pms))
     t_table8 = time.perf_counter() - t0
     own_087 = next(r["v_rom_pms"] for r in t8 if r["mach"] == TABLE5_MACH)
@@ -467,12 +474,14 @@ def main(argv: list[str] | None = None) -> None:
                     help="tsd: the training option anchor_k at these k ('none': plain ROMs, as measured before "
                          "2026-12-04; default: the training's default anchors, docs/transonic.md 7.11)")
     ap.add_argument("--plot", type=Path, default=None, metavar="DIR", help="write the figures (PNG) into DIR")
+    ap.add_argument("--projection-correction", default="auto", choices=PROJECTION_CORRECTIONS,
+                    help="ROM-AMS's DLM projection residual (auto: on TSD ROMs; docs/transonic.md 7.12)")
     ap.add_argument("--json", action="store_true", help="one-line JSON")
     a = ap.parse_args(argv)
     gens = a.generations if a.generations is not None else (QUICK_GENERATIONS if a.quick else EX.PAPER_GENERATIONS)
     res = run(solver=a.solver, generations=gens, popsize=a.popsize, seed=a.seed, max_basis=a.max_basis,
               beam_placement=a.beam_placement, plot_dir=a.plot, processes=a.processes, rom_dir=a.rom_dir,
-              train_options=anchor_options(a.anchor_k) or None)
+              train_options=anchor_options(a.anchor_k) or None, projection_correction=a.projection_correction)
     res["quick"] = bool(a.quick)
     print(json.dumps(res, indent=None if a.json else 1))
 

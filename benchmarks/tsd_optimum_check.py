@@ -34,11 +34,12 @@ from benchmarks import paper_case as pc
 from benchmarks.accuracy_rom_ams import anchor_options, anchor_value, eas, pct_error
 from benchmarks.tsd_ams_gap import analyse
 from romams.services.evaluation import Models, structure_modal
+from romams.services.flight import FlightCondition
 from romams.services.training import rom_identity
 from romams_core.anchors import harmonic_anchors
 from romams_core.basis import project
 from romams_core.evaluate import evaluate_structure
-from romams_core.projection_residual import ResidualCorrection
+from romams_core.projection_residual import PROJECTION_CORRECTIONS, ResidualCorrection
 from romams_core.training_tsd import make_tsd_solver
 from romams_core.wing import cropped_delta
 
@@ -79,7 +80,7 @@ def _job(args: tuple[str, tuple[float, ...], float, tuple[float, ...], Path, dic
 
 
 def run(mach: float, ks: tuple[float, ...], x: tuple[float, ...], rom_dir: Path, processes: int = 2,
-        options: dict[str, Any] | None = None) -> dict[str, Any]:
+        options: dict[str, Any] | None = None, projection_correction: str = "auto") -> dict[str, Any]:
     """Train / read both ROMs, run the direct columns, compare (module docstring); a JSON-able dict."""
     t0 = time.perf_counter()
     jobs = [(kind, x, mach, ks, rom_dir, options or {}) for kind in ("basis", "direct", "modes")]
@@ -90,7 +91,8 @@ def run(mach: float, ks: tuple[float, ...], x: tuple[float, ...], rom_dir: Path,
     (rom_b,) = trainer.roms(models.mesh, models.basis.shapes, [mach], ident)
     (rom_p,) = trainer.roms(models.mesh, modal.shapes, [mach], ident)
     models = Models(0, models.wing, models.mesh, 0, models.basis, {mach: (0, rom_b)})
-    ams, pms, _, _ = pc.ams_and_pms(models, list(x), ident, pc.Memo(), trainer)
+    condition = FlightCondition.from_options(projection_correction=projection_correction)
+    ams, pms, _, _ = pc.ams_and_pms(models, list(x), ident, pc.Memo(), trainer, condition)
     (table8,) = pc.comparison_rows(ams, pms)
     gamma = project(models.basis.shapes, modal.shapes).gamma
     direct = done["direct"][0]
@@ -148,12 +150,15 @@ def main() -> None:
     ap.add_argument("--anchor-k", type=anchor_value, nargs="+", default=None,
                     help="the ROMs' anchor_k ('none': plain ROMs, as in docs/transonic.md 7.10; default: the "
                          "training's default anchors)")
+    ap.add_argument("--projection-correction", default="auto", choices=PROJECTION_CORRECTIONS,
+                    help="for the state-space ROM-AMS row (Table 8): the DLM projection residual (auto: on TSD ROMs; "
+                         "none as in docs/transonic.md 7.10)")
     a = ap.parse_args()
     options = anchor_options(a.anchor_k)
     if a.reference is not None:
         print(json.dumps(basis_only(a.mach, tuple(a.x), a.rom_dir, a.reference, options)))
         return
-    print(json.dumps(run(a.mach, tuple(a.k), tuple(a.x), a.rom_dir, a.processes, options)))
+    print(json.dumps(run(a.mach, tuple(a.k), tuple(a.x), a.rom_dir, a.processes, options, a.projection_correction)))
 
 
 if __name__ == "__main__":
