@@ -10,6 +10,7 @@ import pytest
 from romams_core.aero.protocol import Cancelled
 from romams_core.aero.tsd import TsdSolver
 from romams_core.aero.tsd.coefficients import tsd_coefficients
+from romams_core.aero.tsd.flow import JumpHistory
 from romams_core.aero.tsd.grid import GridSpec, wing_grid
 from romams_core.aero.tsd.solver import mesh_interpolation
 from romams_core.errors import InputError
@@ -290,3 +291,24 @@ def test_grid_and_shape_transfer_follow_a_cranked_planform():
     px, pe = rng.uniform(0, 1, 50), rng.uniform(0, 1, 50)
     got = mesh_interpolation(mesh, px, pe) @ field
     assert np.allclose(got, 0.3 + 0.7 * px - 0.2 * pe + 0.9 * px * pe, atol=1e-12)
+
+
+def test_jump_history_keeps_what_the_wake_can_see():
+    """The wake's jump history (arrays with a spare row, compacted or doubled when full) holds exactly what a plain
+    list trimmed the same way holds, through 1000 steps with a 37-step delay, and the current iterate follows it."""
+    rng = np.random.default_rng(3)
+    hist, ts, gs = JumpHistory(5), [0.0], [rng.standard_normal(5)]
+    hist.reset(0.0, gs[0])
+    for n in range(1, 1001):
+        t, g = 0.013 * n, rng.standard_normal(5)
+        hist.append(t, g)
+        ts.append(t)
+        gs.append(g)
+        hist.forget_before(t - 37 * 0.013)
+        old = int(np.searchsorted(ts, t - 37 * 0.013, side="right")) - 1
+        del ts[:max(old, 0)], gs[:max(old, 0)]
+        cur = rng.standard_normal(5)
+        t_v, g_v = hist.with_current(t + 0.013, cur)
+        assert np.array_equal(t_v, np.array(ts + [t + 0.013]))
+        assert np.array_equal(g_v, np.vstack(gs + [cur]))
+    assert 38 <= len(ts) <= 39 and hist.t.size <= 128

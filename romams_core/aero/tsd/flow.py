@@ -50,6 +50,51 @@ def sponge_layer(grid: TsdGrid, rate: float, fraction: float = 0.5) -> np.ndarra
 
 
 @dataclass
+class JumpHistory:
+    """Trailing-edge jumps [n, nj] at times [n] (t*) in arrays that grow by doubling, with a spare row for the
+    current iterate, so that the wake interpolation stacks nothing per sub-iteration."""
+
+    nj: int
+    t: np.ndarray = field(init=False)  # [capacity]
+    g: np.ndarray = field(init=False)  # [capacity, nj]
+    start: int = 0
+    stop: int = 0
+
+    def __post_init__(self) -> None:
+        self.t = np.zeros(64)
+        self.g = np.zeros((64, self.nj))
+
+    def reset(self, t0: float, g0: np.ndarray) -> None:
+        """Forget everything; the history starts with jump ``g0`` [nj] at ``t0`` (t*)."""
+        self.start, self.stop = 0, 0
+        self.append(t0, g0)
+
+    def append(self, t: float, g: np.ndarray) -> None:
+        """Add the jump ``g`` [nj] at time ``t`` (t*), after the last one."""
+        if self.stop + 2 > self.t.size:  # keep the spare row: move the kept rows to the front, or double
+            n = self.stop - self.start
+            size = self.t.size if 2 * (n + 2) <= self.t.size else 2 * self.t.size
+            t_new, g_new = np.zeros(size), np.zeros((size, self.nj))
+            t_new[:n], g_new[:n] = self.t[self.start:self.stop], self.g[self.start:self.stop]
+            self.t, self.g, self.start, self.stop = t_new, g_new, 0, n
+        self.t[self.stop] = t
+        self.g[self.stop] = g
+        self.stop += 1
+
+    def forget_before(self, t_min: float) -> None:
+        """Drop the entries older than the last one at or before ``t_min`` (t*)."""
+        old = int(np.searchsorted(self.t[self.start:self.stop], t_min, side="right")) - 1
+        if old > 0:
+            self.start += old
+
+    def with_current(self, t: float, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Views (times [n + 1], jumps [n + 1, nj]) of the history followed by the current iterate (``t``, ``g``)."""
+        self.t[self.stop] = t
+        self.g[self.stop] = g
+        return self.t[self.start:self.stop + 1], self.g[self.start:self.stop + 1]
+
+
+@dataclass
 class SteadyResult:
     """Outcome of a pseudo-time steady solution: residual history (max |N| per step) and convergence."""
 
@@ -73,8 +118,7 @@ class TsdFlow:
     gamma: np.ndarray = field(init=False)  # [ni, nj] potential jump on the wake sheet
     t: float = 0.0
     sponge_rate: float = 1.0  # damping rate (1/t*) at the outer edge of the absorbing layer; 0: none
-    _gamma_hist: list[np.ndarray] = field(init=False, default_factory=list)
-    _t_hist: list[float] = field(init=False, default_factory=list)
+    _hist: JumpHistory | None = field(init=False, default=None)  # None until a run starts
 
     def __post_init__(self) -> None:
         g = self.grid
@@ -143,12 +187,11 @@ class TsdFlow:
         gte = self.gamma_te()
         if self.vortex_far_field:
             self._vortex_far_field(float(gte[0]))
-        if not self._t_hist:
+        if self._hist is None:
             self.gamma = np.where(self._wake, gte[None, :], 0.0)
             return
         # the new time level's trailing-edge jump comes from the latest iterate (refreshed every sub-iteration)
-        t_hist = np.asarray(self._t_hist + [self.t])
-        g_hist = np.vstack(self._gamma_hist + [gte])  # [nt, nj]
+        t_hist, g_hist = self._hist.with_current(self.t, gte)  # [nt], [nt, nj]
         tau = np.clip(self.t - self._wake_delay, t_hist[0], self.t)
         pos = np.interp(tau, t_hist, np.arange(t_hist.size))
         lo = np.floor(pos).astype(int)
@@ -161,16 +204,14 @@ class TsdFlow:
     def _record_gamma(self) -> None:
         """Append the trailing-edge jump of the finished step; forget the history no wake node can still see.
 
-        Without the trim every sub-iteration re-stacks the whole run (quadratic cost: 10x slower per step after
-        15000 steps). The entries kept reach back at least the longest wake delay, so the interpolation in
-        ``_update_gamma`` is unchanged.
+        Without the trim every sub-iteration would interpolate in the whole run (a list re-stacked per
+        sub-iteration was 10x slower per step after 15000 steps). The entries kept reach back at least the longest
+        wake delay, so the interpolation in ``_update_gamma`` is unchanged.
         """
-        self._t_hist.append(self.t)
-        self._gamma_hist.append(self.gamma_te())
-        old = int(np.searchsorted(self._t_hist, self.t - self._max_delay, side="right")) - 1
-        if old > 0:
-            del self._t_hist[:old]
-            del self._gamma_hist[:old]
+        if self._hist is None:  # stepped without start_unsteady: the history starts here
+            self._hist = JumpHistory(self.grid.shape[1])
+        self._hist.append(self.t, self.gamma_te())
+        self._hist.forget_before(self.t - self._max_delay)
 
     # ----- one factored Newton step -----------------------------------------------------------------------------
     def _tc(self, order: int, dt: float) -> np.ndarray:
@@ -245,8 +286,9 @@ class TsdFlow:
         for lev in self.levels:
             lev[...] = self.phi
         self.t = 0.0
-        self._t_hist = [0.0]
-        self._gamma_hist = [self.gamma_te()]
+        if self._hist is None:
+            self._hist = JumpHistory(self.grid.shape[1])
+        self._hist.reset(0.0, self.gamma_te())
 
     def step(self, dt: float, n_sub: int = 2) -> tuple[float, float]:
         """Advance one time step dt (t*) with n_sub Newton sub-iterations; returns (max|N| last, max|dphi| last)."""
