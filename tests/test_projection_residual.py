@@ -64,3 +64,26 @@ def test_condition_validates_the_choice() -> None:
     with pytest.raises(InvalidInput) as exc:
         FlightCondition.from_options(projection_correction="euler")
     assert exc.value.field == "projection_correction"
+
+
+def test_ten_machs_are_assembled_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 10-Mach envelope's correction assembles each Mach's DLM once: a second structure reuses all ten systems
+    (the module cache holds SYSTEM_CACHE_SIZE = 12; with 6 it assembled all ten again for every structure)."""
+    import romams_core.aero.dlm as dlm
+
+    mesh = standard_mesh(template("cropped-delta").planform)
+    built: list[float] = []
+    real = dlm._build_dlm
+
+    def counting(mesh_: object, mach: float, sign: float) -> object:
+        built.append(mach)
+        return real(mesh_, mach, sign)
+
+    monkeypatch.setattr(dlm, "_build_dlm", counting)
+    monkeypatch.setattr(dlm, "_SYSTEM_CACHE", {})
+    shapes = np.column_stack([np.ones(mesh.n_nodes), mesh.x])
+    machs = np.linspace(0.5, 0.9, 10)
+    for structure in range(2):
+        for mach in machs:
+            residual_gaf(mesh, shapes * (1.0 + structure), shapes, float(mach), np.array([0.1]))
+    assert built == [float(m) for m in machs]

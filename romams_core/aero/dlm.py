@@ -61,8 +61,10 @@ _BOX_KEYS = ("offset_l", "offset_k", "offset_P1", "offset_P3", "N", "A", "l")
 #: Grid units per reference chord (see the module docstring).
 _UNITS_PER_CHORD = 1000.0
 #: Bounded caches (least recently used dropped first): assembled systems per (lattice, Mach) and factorized
-#: AICs per (lattice, Mach, k). The sizes bound memory (K = 560 boxes: 5 MB per factorization).
-SYSTEM_CACHE_SIZE = 6
+#: AICs per (lattice, Mach, k). The sizes bound memory (K = 560 boxes: 5 MB per factorization, 2.5 MB per system).
+#: 12 systems hold a 10-Mach envelope, so the projection correction's DLM (three k per Mach and structure,
+#: ``romams_core.projection_residual``) is assembled once per Mach, not once per structure and Mach.
+SYSTEM_CACHE_SIZE = 12
 LU_CACHE_SIZE = 48
 _SYSTEM_CACHE: dict[tuple[Any, ...], DlmSystem] = {}
 _LU_CACHE: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray]] = {}

@@ -236,11 +236,10 @@ class TsdFlow:
         return float(nmax), float(nrms), float(np.max(np.abs(w)))
 
     def _shift(self) -> None:
-        """Make room for a new time level (phi becomes level n; the guess is a linear extrapolation)."""
+        """Make room for a new time level: phi becomes level n (the oldest level's array is reused for it)."""
         p1, p2, p3 = self.levels
-        p3[...] = p2
-        p2[...] = p1
-        p1[...] = self.phi
+        p3[...] = self.phi
+        self.levels = [p3, p1, p2]
 
     # ----- runs -------------------------------------------------------------------------------------------------
     def solve_steady(self, dt: float = 0.02, max_steps: int = 4000, tol: float = 1e-6, n_sub: int = 2,
@@ -294,7 +293,8 @@ class TsdFlow:
         """Advance one time step dt (t*) with n_sub Newton sub-iterations; returns (max|N| last, max|dphi| last)."""
         self._shift()
         p1, p2 = self.levels[0], self.levels[1]
-        self.phi[...] = 2.0 * p1 - p2
+        np.multiply(p1, 2.0, out=self.phi)  # the guess: a linear extrapolation
+        self.phi -= p2
         self.t += dt
         tc = self._tc(2, dt)
         nmax = dmax = 0.0
