@@ -10,7 +10,8 @@ Cases (reference data in docs/aerodynamics.md section 14):
 - ``cropped``: cropped delta bare plate at M 0.87 (ISA 10 km, V = M a): flutter dynamic pressure of the TSD and
   the DLM against the experiment (2.40 psi);
 - ``study``: time-step and grid studies at one AGARD point (``--study-mach``, default 0.960): the flutter speed
-  with tsd_dt halved, and with the grid scaled by 0.625 and 1.25 (cell sizes halved between the two);
+  with tsd_dt halved, and with the grid scaled by 0.625 and 1.25 (cell sizes halved between the two), or by 2
+  (``half``: the default grid's cells halved, 8 x the points);
 - ``linear``: the linear limit at M 0.5 and 0.7 on the flat-plate cropped delta and on the AGARD 445.6
   planform without thickness, each wing's own 4 modes: the TSD ROM's GAF frequency response against the DLM's
   GAF (not its rational fit) over k = 0.05-1 on c_ref / 2, per entry and relative to the largest entry, and
@@ -20,7 +21,7 @@ Cases (reference data in docs/aerodynamics.md section 14):
 One TSD training per point takes minutes (``--processes`` trains Mach numbers in parallel).
 
     python -m benchmarks.validate_tsd [--cases agard,cropped,study,linear] [--plot docs] [--processes 2]
-        [--na NA --nb NB] [--anchor-k K ...] [--study-variants default,dt,coarse,fine]
+        [--na NA --nb NB] [--anchor-k K ...] [--study-variants default,dt,coarse,fine,half]
 
 ``--anchor-k`` trains every TSD ROM with the option ``anchor_k`` (direct harmonic runs of each shape at those k,
 docs/transonic.md 7.7): the study then compares grids and steps at the anchors without the ARX scatter.
@@ -207,7 +208,8 @@ def main() -> None:
                     help="TSD training option anchor_k at these k ('none': plain ROMs, as measured before "
                          "2026-12-04; default: the training's default anchors)")
     ap.add_argument("--study-variants", default="default,dt,coarse,fine",
-                    help="study: comma list of default, dt (tsd_dt halved), coarse (grid x 0.625), fine (x 1.25)")
+                    help="study: comma list of default, dt (tsd_dt halved), coarse (grid x 0.625), fine (x 1.25), "
+                         "half (x 2: every cell size halved, 8 x the points)")
     ap.add_argument("--processes", type=int, default=1)
     ap.add_argument("--plot", default=None, help="directory for agard_flutter_tsd.png")
     a = ap.parse_args()
@@ -232,7 +234,8 @@ def main() -> None:
         m = a.study_mach
         named = {"default": base, "dt": {**base, "tsd_dt": 0.01},
                  "coarse": {**base, "grid_scale": 0.625 * a.grid_scale},
-                 "fine": {**base, "grid_scale": 1.25 * a.grid_scale}}
+                 "fine": {**base, "grid_scale": 1.25 * a.grid_scale},
+                 "half": {**base, "grid_scale": 2.0 * a.grid_scale}}
         picked = ["default", *(v for v in a.study_variants.split(",") if v != "default")]
         if unknown := sorted(set(picked) - set(named)):
             ap.error(f"--study-variants: unknown {unknown}, choose from {sorted(named)}")
