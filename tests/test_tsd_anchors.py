@@ -61,3 +61,21 @@ def test_anchored_tsd_rom_reproduces_direct_harmonic_runs():
         train_tsd_rom(mesh, shapes, 0.8, solver, anchor_hold=5.0, **kw)
     assert inspect.signature(train_tsd_rom).parameters["anchor_k"].default == DEFAULT_ANCHOR_K == (0.025, 0.05, 0.1)
     assert not anchors_on(None) and not anchors_on([]) and anchors_on([0.05])
+
+
+def test_hold_differences_of_a_first_order_lag():
+    """``benchmarks.tsd_step_hold``: a first-order lag's step record (time constant 20 t*) truncated at 60 and 100
+    t* misses the 240 t* record's gain by a^600 - a^2400 and a^1000 - a^2400 (a = exp(-0.1 / 20)): the k = 0
+    differences have that ratio (about e^2) to 1e-9, and the longest hold differs from itself by zero."""
+    from benchmarks.tsd_step_hold import hold_differences
+
+    a = math.exp(-0.1 / 20.0)
+    n = np.arange(2401)
+    u = (n >= 1).astype(float)
+    y = np.where(n >= 1, 1.0 - a ** n, 0.0)[:, None] * np.array([1.0, 0.5])
+    rec = np.column_stack([u, np.zeros_like(u)])
+    diff = hold_differences([y], [rec], [0], [60.0, 100.0, 240.0], np.array([0.0, 0.01]))
+    assert diff["240"] == [0.0, 0.0]
+    ratio = (a ** 600 - a ** 2400) / (a ** 1000 - a ** 2400)
+    assert diff["60"][0] / diff["100"][0] == pytest.approx(ratio, rel=1e-9)
+    assert diff["60"][1] > diff["100"][1] > 0.0
