@@ -181,8 +181,9 @@ def train_tsd_rom(
     if solver.last_mean_flow is not None:
         rom.mean_flow = solver.last_mean_flow.to_dict()
         if not solver.last_mean_flow.steady.converged:
+            steady = solver.last_mean_flow.steady
             rom.warnings.append(f"TSD mean flow not converged to dphi/dt < {solver.steady_tol:g} in "
-                                f"{solver.steady_steps} steps")
+                                f"{steady.steps} steps ({steady.steps * solver.last_mean_flow.dt:g} t*)")
     if anchor:
         k = check_anchor_k(cast(Sequence[float], anchor_k), k_max)
         band = np.asarray(ANCHOR_BAND_K)

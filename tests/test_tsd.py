@@ -312,3 +312,12 @@ def test_jump_history_keeps_what_the_wake_can_see():
         assert np.array_equal(t_v, np.array(ts + [t + 0.013]))
         assert np.array_equal(g_v, np.vstack(gs + [cur]))
     assert 38 <= len(ts) <= 39 and hist.t.size <= 128
+
+
+def test_steady_budget_is_pseudo_time_whatever_the_step():
+    """The steady march may take ``steady_steps`` steps of 0.02 t* (50 t* by default) whatever the step: halving
+    ``dt`` doubles the steps (it halved the budget in t* before; the AGARD grid x 2 at dt 0.01 stopped
+    unconverged after 25 t*)."""
+    assert TsdSolver().steady_budget(0.02) == 2500
+    assert TsdSolver(dt=0.01).steady_budget(0.01) == 5000
+    assert TsdSolver(steady_steps=100).steady_budget(0.005) == 400

@@ -48,6 +48,8 @@ MIN_MACH = 0.4
 #: on the cropped delta a perturbed rest state decays at 3.72 cells (M 0.6 / 0.87 / 0.95, 60 t*) and grows at
 #: 4.35 (M 0.87, 5 t*); step records at 3.72 and 2.90 cells agree to 0.01 % of the largest entry up to k 0.5
 TE_CELLS_PER_STEP = 3.75
+#: the time step (t*) in which ``TsdSolver.steady_steps`` counts the steady march's budget
+STEADY_DT = 0.02
 
 
 def sub_iterations(mach: float) -> int:
@@ -169,7 +171,7 @@ class TsdSolver:
     n_sub: int | None = None
     sponge_rate: float = 1.0
     coefficients: str = "ames"
-    steady_steps: int = 2500
+    steady_steps: int = 2500  # the steady march's budget in steps of STEADY_DT (50 t*), whatever dt is
     steady_tol: float = 2e-4
     name: str = "tsd"
     record_threads: int | None = None
@@ -255,6 +257,12 @@ class TsdSolver:
         te = (grid.xf[i_te + 1] - grid.xf[i_te]) * grid.chord(grid.yc[grid.strips]).min()
         return float(min(self.dt, self.te_cells_per_step * te))
 
+    def steady_budget(self, dt: float) -> int:
+        """Steps of ``dt`` (t*) the steady march may take: ``steady_steps`` steps of STEADY_DT, the same pseudo-time
+        whatever ``dt`` is (it was ``steady_steps`` steps of ``dt``: halving ``tsd_dt`` halved the budget in t*, and
+        the AGARD grid x 2 at dt 0.01 stopped unconverged after 25 t*, docs/transonic.md 7.13)."""
+        return int(self.steady_steps * STEADY_DT / dt)
+
     def n_sub_at(self, mach: float) -> int:
         """Sub-iterations per time step at ``mach``."""
         return self.n_sub if self.n_sub is not None else sub_iterations(mach)
@@ -271,11 +279,11 @@ class TsdSolver:
 
         def check(step: int, nmax: float, change: float) -> None:
             if progress is not None and (step % 25 == 0 or step == 1):
-                progress(share * min(1.0, step * dt / (self.steady_steps * self.dt)),
+                progress(share * min(1.0, step * dt / (self.steady_steps * STEADY_DT)),
                          f"steady mean flow: step {step}, residual {nmax:.2e}, dphi/dt {change:.2e}")
 
         dt = self.time_step(grid)
-        result = flow.solve_steady(dt=dt, max_steps=int(self.steady_steps * self.dt / dt), tol=self.steady_tol,
+        result = flow.solve_steady(dt=dt, max_steps=self.steady_budget(dt), tol=self.steady_tol,
                                    n_sub=self.n_sub_at(mach), check=check)
         if not np.all(np.isfinite(flow.phi)):
             raise RuntimeError(f"TSD steady solution diverged at M = {mach} (reduce dt or refine the grid)")
