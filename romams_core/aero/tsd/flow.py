@@ -87,6 +87,11 @@ class JumpHistory:
         if old > 0:
             self.start += old
 
+    @property
+    def empty(self) -> bool:
+        """True before the first entry (no run started)."""
+        return self.stop == self.start
+
     def with_current(self, t: float, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Views (times [n + 1], jumps [n + 1, nj]) of the history followed by the current iterate (``t``, ``g``)."""
         self.t[self.stop] = t
@@ -118,7 +123,7 @@ class TsdFlow:
     gamma: np.ndarray = field(init=False)  # [ni, nj] potential jump on the wake sheet
     t: float = 0.0
     sponge_rate: float = 1.0  # damping rate (1/t*) at the outer edge of the absorbing layer; 0: none
-    _hist: JumpHistory | None = field(init=False, default=None)  # None until a run starts
+    _hist: JumpHistory = field(init=False)  # empty until a run starts
 
     def __post_init__(self) -> None:
         g = self.grid
@@ -128,6 +133,7 @@ class TsdFlow:
         self.w_up = np.zeros((ni, nj))
         self.w_lo = np.zeros((ni, nj))
         self.gamma = np.zeros((ni, nj))
+        self._hist = JumpHistory(nj)
         self._co = np.array([self.coef.A, self.coef.B, self.coef.E, self.coef.F, self.coef.G, self.coef.H,
                              self.coef.u_star])
         self._cj = g.chord(g.yc)
@@ -187,7 +193,7 @@ class TsdFlow:
         gte = self.gamma_te()
         if self.vortex_far_field:
             self._vortex_far_field(float(gte[0]))
-        if self._hist is None:
+        if self._hist.empty:
             self.gamma = np.where(self._wake, gte[None, :], 0.0)
             return
         # the new time level's trailing-edge jump comes from the latest iterate (refreshed every sub-iteration)
@@ -208,8 +214,6 @@ class TsdFlow:
         sub-iteration was 10x slower per step after 15000 steps). The entries kept reach back at least the longest
         wake delay, so the interpolation in ``_update_gamma`` is unchanged.
         """
-        if self._hist is None:  # stepped without start_unsteady: the history starts here
-            self._hist = JumpHistory(self.grid.shape[1])
         self._hist.append(self.t, self.gamma_te())
         self._hist.forget_before(self.t - self._max_delay)
 
@@ -285,8 +289,6 @@ class TsdFlow:
         for lev in self.levels:
             lev[...] = self.phi
         self.t = 0.0
-        if self._hist is None:
-            self._hist = JumpHistory(self.grid.shape[1])
         self._hist.reset(0.0, self.gamma_te())
 
     def step(self, dt: float, n_sub: int = 2) -> tuple[float, float]:
