@@ -192,6 +192,10 @@ def train_tsd_rom(
         _anchor(rom, k, gaf[:k.size], band, gaf[k.size:])
     else:
         rom.warnings.append(UNANCHORED_WARNING)
+    if solver.step_halvings and solver.last_mean_flow is not None:
+        rom.mean_flow = solver.last_mean_flow.to_dict()  # the last run's step
+        rom.warnings.append(f"the TSD march diverged at the capped step and was repeated with it halved "
+                            f"{solver.step_halvings} time(s), to dt {solver.last_mean_flow.dt:.4g} t*")
     if linearity_check:
         half = solver.simulate(mesh, shapes, 0.5 * rom.signals_train, mach, dt_star)
         full = rom.gac_train

@@ -166,6 +166,58 @@ def test_a_failing_record_reports_its_own_error(monkeypatch):
         TsdSolver(grid=spec, record_threads=2).simulate_records(mesh, shapes, records, 0.8, 0.1)
 
 
+#: a small AGARD-like grid whose steady march at M 0.9 diverges at dt 0.2 (uncapped) and runs at 0.15 and below
+_SMALL = GridSpec(n_chord=16, n_upstream=6, n_downstream=8, n_span=6, n_outboard=4, n_z=10, dz0=0.04)
+
+
+def _small_run(dt: float, halvings: int, monkeypatch=None) -> tuple[TsdSolver, np.ndarray]:
+    """(solver, GAC of a held step) of the 6 % thick AGARD-like wing at M 0.9 with no trailing-edge step cap."""
+    mesh = standard_mesh(AGARD_LIKE)
+    shapes = np.column_stack([0.01 * (mesh.y / AGARD_LIKE.semispan) ** 2])
+    signal = np.zeros((60, 1))
+    signal[5:, 0] = 1.0
+    solver = TsdSolver(grid=_SMALL, dt=dt, te_cells_per_step=1e3, max_step_halvings=halvings,
+                       thickness_form="naca4", thickness_to_chord=0.06)
+    return solver, solver.simulate(mesh, shapes, signal, 0.9, 0.2)
+
+
+def test_a_diverged_steady_march_is_repeated_with_the_step_halved():
+    """dt 0.2 diverges in the steady march on this grid: with one halving allowed the solver runs at 0.1 and gives
+    the run of dt 0.1 exactly; with none it raises Diverged naming tsd_dt, no GAC comes out."""
+    from romams_core.aero.tsd.solver import Diverged
+
+    with pytest.raises(Diverged, match="steady solution diverged.*after 0 halvings.*tsd_dt"):
+        _small_run(0.2, 0)
+    solver, gac = _small_run(0.2, 1)
+    ref_solver, ref = _small_run(0.1, 0)
+    assert solver.step_halvings == 1 and ref_solver.step_halvings == 0
+    assert solver.last_mean_flow.dt == pytest.approx(0.1, rel=1e-12)
+    assert solver.last_mean_flow.to_dict()["step_halvings"] == 1
+    assert np.all(np.isfinite(gac)) and np.abs(gac).max() > 0.0
+    np.testing.assert_array_equal(gac, ref)
+
+
+def test_a_diverged_unsteady_run_is_repeated_from_the_steady_state_with_the_step_halved(monkeypatch):
+    """The first unsteady march raises Diverged (as a non-finite GAC does): the solver halves the step, recomputes
+    the mean flow and marches again; the result equals a run at half the step."""
+    from romams_core.aero.tsd import solver as tsd_solver
+
+    run, calls = tsd_solver._March.run, []
+
+    def first_fails(self, flow, signals, report):
+        calls.append(self.n_int)
+        if len(calls) == 1:
+            raise tsd_solver.Diverged("TSD unsteady run diverged at step 3 (test)")
+        return run(self, flow, signals, report)
+
+    monkeypatch.setattr(tsd_solver._March, "run", first_fails)
+    solver, gac = _small_run(0.1, 2)
+    monkeypatch.setattr(tsd_solver._March, "run", run)
+    _, ref = _small_run(0.05, 0)
+    assert calls == [2, 4] and solver.step_halvings == 1  # 0.2 t* signal steps: 2 internal steps, then 4
+    np.testing.assert_array_equal(gac, ref)
+
+
 def _harmonic_gaf(solver: TsdSolver, mesh, shapes: np.ndarray, mach: float, k: float) -> np.ndarray:
     """First-harmonic GAC matrix [m, m] of the TSD at reduced frequency k (3 cycles, the last analysed)."""
     dts, om = 0.1, 2.0 * k

@@ -50,6 +50,19 @@ MIN_MACH = 0.4
 TE_CELLS_PER_STEP = 3.75
 #: the time step (t*) in which ``TsdSolver.steady_steps`` counts the steady march's budget
 STEADY_DT = 0.02
+#: how often a run that diverged is repeated with the step halved (``TsdSolver.max_step_halvings``): the
+#: trailing-edge cap is not a stability limit on every grid (the AGARD grid x 2 diverged at M 0.96 at 3.3 cells
+#: within 2 t* and ran at half that step, docs/transonic.md 7.13)
+MAX_STEP_HALVINGS = 2
+
+
+class Diverged(RuntimeError):
+    """A TSD march (steady or unsteady) whose field became non-finite: the step is too large for the grid.
+    ``spent``: raised after the last halving allowed (no retry left)."""
+
+    def __init__(self, message: str, spent: bool = False) -> None:
+        super().__init__(message)
+        self.spent = spent
 
 
 def sub_iterations(mach: float) -> int:
@@ -141,12 +154,14 @@ class MeanFlow:
     cp_star: float
     steady: SteadyResult
     dt: float = 0.02  # internal time step (t*)
+    step_halvings: int = 0  # times the step was halved after a diverged run (``TsdSolver.max_step_halvings``)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (lists of floats)."""
         return {"mach": self.mach, "x_over_c": self.x_over_c.tolist(), "eta": self.eta.tolist(),
                 "cp_upper": self.cp_upper.tolist(), "cp_lower": self.cp_lower.tolist(), "cp_star": self.cp_star,
                 "steady_steps": self.steady.steps, "steady_converged": self.steady.converged, "dt": self.dt,
+                "step_halvings": self.step_halvings,
                 "steady_seconds": self.steady.seconds,
                 "residual_history": self.steady.residual_history[:: max(1, self.steady.steps // 200)].tolist()}
 
@@ -177,7 +192,9 @@ class TsdSolver:
     record_threads: int | None = None
     symmetry: str = "symmetric"  # of the root plane: symmetric, antisymmetric or none (a free wing)
     te_cells_per_step: float = TE_CELLS_PER_STEP  # the step cap in trailing-edge cells (``time_step``)
+    max_step_halvings: int = MAX_STEP_HALVINGS  # retries of a diverged run, each at half the step
     last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
+    step_halvings: int = field(default=0, init=False)  # halvings this solver needed so far (kept for later runs)
 
     def __post_init__(self) -> None:
         self.thickness_form, self.thickness_to_chord = check_thickness(self.thickness_form,
@@ -187,6 +204,8 @@ class TsdSolver:
         if not (math.isfinite(self.dt) and 0.0 < self.dt <= 0.2):
             raise InputError("dt", f"must be in (0, 0.2] (t* units), got {self.dt!r}")
         image_sign(self.symmetry)  # InputError naming symmetry
+        if not (isinstance(self.max_step_halvings, int) and 0 <= self.max_step_halvings <= 6):
+            raise InputError("max_step_halvings", f"must be an integer in [0, 6], got {self.max_step_halvings!r}")
 
     def info(self, mach: float) -> SolverInfo:
         """Describe the solver and its caveats at ``mach``."""
@@ -246,7 +265,8 @@ class TsdSolver:
         return mach
 
     def time_step(self, grid: TsdGrid) -> float:
-        """Internal time step (t*): ``dt``, capped at ``te_cells_per_step`` times the smallest trailing-edge cell.
+        """Internal time step (t*): ``dt``, capped at ``te_cells_per_step`` times the smallest trailing-edge cell,
+        halved ``step_halvings`` times (once a run diverged at it).
 
         The sheared grid scales with the local chord, so a tapered wing's tip has small cells: on the cropped
         delta (taper 0.2, TE cells down to 0.0038 c_ref) dt 0.0167 grew from a perturbed rest state and 0.0143
@@ -255,7 +275,17 @@ class TsdSolver:
         """
         i_te = int(np.flatnonzero(grid.xc < 1.0)[-1])
         te = (grid.xf[i_te + 1] - grid.xf[i_te]) * grid.chord(grid.yc[grid.strips]).min()
-        return float(min(self.dt, self.te_cells_per_step * te))
+        return float(min(self.dt, self.te_cells_per_step * te)) * 0.5 ** self.step_halvings
+
+    def _halve_step(self, grid: TsdGrid, exc: Diverged) -> None:
+        """After a diverged run: halve the step for this and every later run, or raise ``exc`` when the halvings
+        allowed are spent."""
+        if exc.spent:
+            raise exc
+        if self.step_halvings >= self.max_step_halvings:
+            raise Diverged(f"{exc} (after {self.step_halvings} halvings of the step; refine the time step with "
+                           "tsd_dt)", spent=True) from exc
+        self.step_halvings += 1
 
     def steady_budget(self, dt: float) -> int:
         """Steps of ``dt`` (t*) the steady march may take: ``steady_steps`` steps of STEADY_DT, the same pseudo-time
@@ -272,6 +302,14 @@ class TsdSolver:
         """Converged steady flow about the wing's thickness at ``mach``; keeps its Cp in ``last_mean_flow``."""
         mach = self.check_mach(mach)
         grid = self.build_grid(mesh)
+        while True:
+            try:
+                return self._mean_flow(grid, mach, progress, share)
+            except Diverged as exc:
+                self._halve_step(grid, exc)
+
+    def _mean_flow(self, grid: TsdGrid, mach: float, progress: ProgressFn | None, share: float) -> TsdFlow:
+        """One steady march at the current step (``mean_flow``); Diverged when its field became non-finite."""
         flow = TsdFlow(grid, tsd_coefficients(mach, self.coefficients), sponge_rate=self.sponge_rate)
         slope = self._thickness_slope(grid)[:, None]
         flow.w_up[...] = np.where(grid.wing, slope, 0.0)
@@ -286,13 +324,14 @@ class TsdSolver:
         result = flow.solve_steady(dt=dt, max_steps=self.steady_budget(dt), tol=self.steady_tol,
                                    n_sub=self.n_sub_at(mach), check=check)
         if not np.all(np.isfinite(flow.phi)):
-            raise RuntimeError(f"TSD steady solution diverged at M = {mach} (reduce dt or refine the grid)")
+            raise Diverged(f"TSD steady solution diverged at M = {mach}, dt {dt:.4g} t*")
         up, lo = flow.surface_cp()
         iw = np.flatnonzero((grid.xc > 0) & (grid.xc < 1))
         jw = np.flatnonzero(grid.strips)  # the wing's stations (not a free wing's columns below the root)
         self.last_mean_flow = MeanFlow(mach=mach, x_over_c=grid.xc[iw], eta=grid.yc[jw] / grid.semispan,
                                        cp_upper=up[np.ix_(iw, jw)], cp_lower=lo[np.ix_(iw, jw)],
-                                       cp_star=flow.coef.cp_star, steady=result, dt=dt)
+                                       cp_star=flow.coef.cp_star, steady=result, dt=dt,
+                                       step_halvings=self.step_halvings)
         return flow
 
     def simulate(self, mesh: StandardMesh, shapes: np.ndarray, signals: np.ndarray, mach: float, dt_star: float,
@@ -305,7 +344,8 @@ class TsdSolver:
         """GAC [T_r, m] (m^3) of each record [T_r, m], every one from rest about one steady mean flow at ``mach``.
 
         The records are independent runs: they are marched at the same time on up to ``record_threads`` threads
-        (None: one per record, at most the cores this process may use). The numba kernels release the GIL.
+        (None: one per record, at most the cores this process may use). The numba kernels release the GIL. A run
+        that diverges is repeated from the steady state with the step halved (up to ``max_step_halvings``).
         """
         mach = self.check_mach(mach)
         dt_star = check_dt_star(dt_star)
@@ -313,6 +353,15 @@ class TsdSolver:
         records = [check_signals(r, shapes.shape[1]) for r in records]
         grid = self.build_grid(mesh)
         self.check_grid(grid, shapes.shape[1])
+        while True:
+            try:
+                return self._simulate_records(mesh, shapes, records, mach, dt_star, progress)
+            except Diverged as exc:
+                self._halve_step(grid, exc)
+
+    def _simulate_records(self, mesh: StandardMesh, shapes: np.ndarray, records: list[np.ndarray], mach: float,
+                          dt_star: float, progress: ProgressFn | None) -> list[np.ndarray]:
+        """One attempt of ``simulate_records`` (checked inputs) at the current step."""
         flow = self.mean_flow(mesh, mach, progress, share=0.2)
         march = _March.build(self, mesh, flow, shapes, dt_star, mach)
         march.check_amplitude(records)
@@ -440,13 +489,13 @@ class _March:
                 try:
                     flow.step(dt, self.n_sub)
                 except (ZeroDivisionError, FloatingPointError) as exc:
-                    raise RuntimeError(f"TSD unsteady run diverged at step {n} (M = {self.mach}): {exc}") from exc
+                    raise Diverged(f"TSD unsteady run diverged at step {n} (M = {self.mach}): {exc}") from exc
             gac[n] = flow.cell_lift(dt)[wing] @ self.weights - self.f_mean
             if not np.all(np.isfinite(gac[n])):
-                raise RuntimeError(f"TSD unsteady run diverged at step {n} (M = {self.mach}); reduce dt")
+                raise Diverged(f"TSD unsteady run diverged at step {n} (M = {self.mach}, dt {dt:.4g} t*)")
             if n % 20 == 0 or n == n_t - 1:
                 report(n + 1, f"unsteady: step {n + 1}/{n_t} ({time.perf_counter() - t_wall:.0f} s)")
         return gac
 
 
-__all__ = ["TsdSolver", "MeanFlow", "Cancelled", "check_thickness", "mesh_interpolation"]
+__all__ = ["TsdSolver", "MeanFlow", "Cancelled", "Diverged", "check_thickness", "mesh_interpolation"]

@@ -1,0 +1,120 @@
+"""AGARD 445.6's TSD flutter point with no ROM at all, on any grid and step (prints JSON).
+
+One step record per mode (``anchors.step_records``: the mode raised alone and held, docs/transonic.md 7.11) gives
+the TSD's discrete transfer matrix of the wing's own 4 modes at every reduced frequency at once; p-k on that
+table at matched Mach (V = V_exp, the density swept, the equivalent speed sqrt(2 q_f / rho_exp)) is the TSD's
+flutter point with no identification in it. Run on two grids, the difference is the grid's alone: the
+grid-halving study of the issue without the ARX scatter that the plain ROMs of ``validate_tsd --cases study``
+carry (docs/transonic.md 7.13). The DLM's transfer matrix of the same modes gives the linear point beside it.
+
+The 4 records march on threads about one mean flow (``TsdSolver.simulate_records``); each variant's transfer
+table is kept in ``--out`` and reused, so an interrupted study resumes at the variant where it stopped.
+
+    python -m benchmarks.agard_direct_flutter [--mach 0.96] [--grid-scale 1 2] [--dt 0.02 0.01] [--hold 120]
+        [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks.validate_dlm import AGARD_EXPERIMENT
+from benchmarks.validate_tsd import AGARD_MU, fsi
+from romams.services.training import section_options
+from romams_core.aero.dlm import frequency_response
+from romams_core.anchors import STEP_HOLD, step_anchors
+from romams_core.mesh import standard_mesh
+from romams_core.pk import AeroTable, pk_flutter
+from romams_core.structure.modal import modal_analysis
+from romams_core.training_tsd import make_tsd_solver
+from romams_core.wing import template
+
+#: the p-k table's reduced frequencies (on c_ref / 2): AGARD flutters near k 0.08 at M 0.96
+K_TABLE = np.round(np.arange(0.0, 1.0 + 1e-9, 0.005), 9)
+#: the step record's sample (t*), as the training's
+DT_STAR = 0.1
+
+
+def _wing() -> tuple[Any, Any, Any]:
+    """(wing, standard mesh, its own 4 modes) of the AGARD 445.6 weakened wing."""
+    wing = template("agard-445.6")
+    mesh = standard_mesh(wing.planform)
+    return wing, mesh, modal_analysis(wing, None, 4, mesh)
+
+
+def _table(mach: float, scale: float, dt: float, hold: float, out: str | None
+           ) -> tuple[np.ndarray, float, dict[str, Any]]:
+    """(transfer matrix [nk, 4, 4] of the modes' step records, seconds, mean-flow summary) on one grid and step."""
+    path = None if out is None else Path(out) / f"agard-M{mach:g}-g{scale:g}-dt{dt:g}-h{hold:g}.npz"
+    if path is not None and path.exists():
+        kept = np.load(path)
+        if np.array_equal(kept["k"], K_TABLE):
+            return kept["gaf"], float(kept["seconds"]), json.loads(str(kept["mean_flow"]))
+    wing, mesh, modal = _wing()
+    solver = make_tsd_solver(**section_options(wing), grid_scale=scale, tsd_dt=dt)
+    t0 = time.perf_counter()
+    gaf = step_anchors(solver, mesh, modal.shapes, mach, K_TABLE, DT_STAR, hold=hold)  # the records on threads
+    seconds = time.perf_counter() - t0
+    mf = solver.last_mean_flow
+    summary = {} if mf is None else {"steady_steps": mf.steady.steps, "steady_t_star": mf.steady.steps * mf.dt,
+                                     "steady_converged": mf.steady.converged, "cp_star": mf.cp_star,
+                                     "cp_min": float(min(mf.cp_upper.min(), mf.cp_lower.min()))}
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(path, k=K_TABLE, gaf=gaf, seconds=seconds, mean_flow=json.dumps(summary))
+    return gaf, seconds, summary
+
+
+def flutter_point(table: np.ndarray, k: np.ndarray, omega: np.ndarray, c_ref: float, mach: float) -> dict[str, Any]:
+    """Matched-Mach p-k point of the transfer table [nk, 4, 4] at the experimental density of ``mach``."""
+    rho, v_exp, _ = AGARD_EXPERIMENT[mach]
+    p = pk_flutter(omega, AeroTable(k, table), c_ref, mach, sweep="constant-speed", rho_ref=rho,
+                   a_ref=v_exp / mach)
+    v = None if p.q_flutter_pa is None else math.sqrt(2.0 * p.q_flutter_pa / rho)
+    return {"v_f": v, "omega_f": p.omega_flutter_rad_s, "k_f": p.k_flutter, "mode": p.flutter_mode,
+            "fsi": None if v is None else fsi(v, rho, (rho, AGARD_MU[mach])),
+            "v_error_pct": None if v is None else 100.0 * (v / v_exp - 1.0)}
+
+
+def run(mach: float, scales: list[float], dts: list[float], hold: float, out: str | None) -> dict[str, Any]:
+    """Step records of the 4 modes on each (grid scale, dt) pair, p-k on each transfer table and on the DLM's."""
+    t0 = time.perf_counter()
+    _, mesh, modal = _wing()
+    res: dict[str, Any] = {"mach": mach, "hold": hold, "v_exp": AGARD_EXPERIMENT[mach][1], "variants": []}
+    for s, d in zip(scales, dts, strict=True):
+        table, seconds, mean_flow = _table(mach, s, d, hold, out)
+        res["variants"].append({"grid_scale": s, "tsd_dt": d, "seconds": round(seconds, 1), "mean_flow": mean_flow,
+                                **flutter_point(table, K_TABLE, modal.omega, mesh.c_ref, mach)})
+    ref = res["variants"][0]["v_f"]
+    for row in res["variants"]:
+        row["change_pct"] = None if ref is None or row["v_f"] is None else 100.0 * (row["v_f"] / ref - 1.0)
+    dlm_k = K_TABLE[::2]
+    res["dlm"] = flutter_point(frequency_response(mesh, modal.shapes, mach, dlm_k), dlm_k, modal.omega,
+                               mesh.c_ref, mach)
+    res["wall_s"] = time.perf_counter() - t0
+    return res
+
+
+def main() -> None:
+    """CLI entry point."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--mach", type=float, default=0.960, choices=sorted(AGARD_EXPERIMENT))
+    ap.add_argument("--grid-scale", type=float, nargs="+", default=[1.0, 2.0], help="grid scales, one per variant")
+    ap.add_argument("--dt", type=float, nargs="+", default=[0.02, 0.01], help="tsd_dt of each variant (t*)")
+    ap.add_argument("--hold", type=float, default=STEP_HOLD, help="step hold (t*)")
+    ap.add_argument("--out", default=None, help="keep (and reuse) each mode's transfer column here")
+    a = ap.parse_args()
+    if len(a.grid_scale) != len(a.dt):
+        ap.error("--grid-scale and --dt need one value each per variant")
+    print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out), indent=1))
+
+
+if __name__ == "__main__":
+    main()
