@@ -24,20 +24,24 @@ def rss_mib() -> float:
     return int(line.split()[1]) / 1024
 
 
-def fragmented_free_memory() -> list[bytes]:
-    """Allocate COUNT chunks, free all but one allocated after them: the free run cannot shrink the heap's top."""
+def fragmented_free_memory() -> tuple[list[bytes], float]:
+    """Allocate COUNT chunks, free all but one allocated after them: the free run cannot shrink the heap's top.
+    Returns (the live chunk, RSS in MiB while all chunks were live: a trimmer thread may release the run as soon
+    as it is freed, so the level to compare with is read before)."""
     chunks = [bytes(CHUNK) for _ in range(COUNT)]
     keep = [bytes(CHUNK)]  # allocated last: pins the top of the heap
+    full = rss_mib()
     for i in range(COUNT):
         chunks[i] = b""
     del chunks
-    return keep
+    return keep, full
 
 
 def test_trim_hands_a_freed_run_of_heap_back_to_the_kernel() -> None:
     """60 MiB freed below a live chunk stay resident until trim_heap; then at least 30 MiB are released."""
-    keep = fragmented_free_memory()
+    keep, full = fragmented_free_memory()
     before = rss_mib()
+    assert before > full - 10.0, (full, before)  # freed, still resident: nothing trims in this test
     assert trim_heap()
     after = rss_mib()
     assert before - after >= 30.0, (before, after)
@@ -48,8 +52,7 @@ def test_the_trimmer_thread_trims_periodically_and_stops() -> None:
     """heap_trimmer releases the same run on its own within a second and its thread ends on stop()."""
     trimmer = heap_trimmer(0.05).start()
     try:
-        keep = fragmented_free_memory()
-        peak = rss_mib()
+        keep, peak = fragmented_free_memory()  # peak read before the free: the trimmer may act at once
         deadline = time.monotonic() + 5.0
         while rss_mib() > peak - 30.0 and time.monotonic() < deadline:
             time.sleep(0.05)
