@@ -11,7 +11,10 @@ The 4 records march on threads about one mean flow (``TsdSolver.simulate_records
 table is kept in ``--out`` and reused, so an interrupted study resumes at the variant where it stopped.
 
     python -m benchmarks.agard_direct_flutter [--mach 0.96] [--grid-scale 1 2] [--dt 0.02 0.01] [--hold 120]
-        [--out DIR]
+        [--axes xyz xyz] [--tip-fade W] [--out DIR]
+
+``--axes`` refines one direction at a time (``x``: the chordwise and streamwise counts, ``y``: the spanwise,
+``z``: the normal count and the first height), to find which resolution moves the flutter point.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import argparse
 import json
 import math
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -29,11 +33,13 @@ from benchmarks.validate_dlm import AGARD_EXPERIMENT
 from benchmarks.validate_tsd import AGARD_MU, fsi
 from romams.services.training import section_options
 from romams_core.aero.dlm import frequency_response
+from romams_core.aero.tsd import TsdSolver
+from romams_core.aero.tsd.grid import GridSpec
 from romams_core.anchors import STEP_HOLD, step_anchors
 from romams_core.mesh import standard_mesh
 from romams_core.pk import AeroTable, pk_flutter
 from romams_core.structure.modal import modal_analysis
-from romams_core.training_tsd import make_tsd_solver
+from romams_core.training_tsd import tsd_grid_spec
 from romams_core.wing import template
 
 #: the p-k table's reduced frequencies (on c_ref / 2): AGARD flutters near k 0.08 at M 0.96
@@ -49,21 +55,40 @@ def _wing() -> tuple[Any, Any, Any]:
     return wing, mesh, modal_analysis(wing, None, 4, mesh)
 
 
-def _table(mach: float, scale: float, dt: float, hold: float, out: str | None
-           ) -> tuple[np.ndarray, float, dict[str, Any]]:
+#: the default grid's cell counts (and first height) that a refinement along each axis scales
+AXIS_FIELDS = {"x": ("n_chord", "n_upstream", "n_downstream"), "y": ("n_span", "n_outboard"), "z": ("n_z",)}
+
+
+def grid_spec(scale: float, axes: str = "xyz") -> GridSpec:
+    """The default TSD grid with the cell counts along ``axes`` (any of x, y, z) times ``scale`` (z: dz0 / scale)."""
+    if set(axes) == set("xyz"):
+        return tsd_grid_spec(scale)
+    base, new = GridSpec(), {}
+    for axis in axes:
+        for name in AXIS_FIELDS[axis]:
+            new[name] = max(2, int(round(getattr(base, name) * scale)))
+    if "z" in axes:
+        new["dz0"] = base.dz0 / scale
+    return replace(base, **new)
+
+
+def _table(mach: float, scale: float, dt: float, hold: float, out: str | None, axes: str = "xyz",
+           tip_fade: float = 0.0) -> tuple[np.ndarray, float, dict[str, Any]]:
     """(transfer matrix [nk, 4, 4] of the modes' step records, seconds, mean-flow summary) on one grid and step."""
-    path = None if out is None else Path(out) / f"agard-M{mach:g}-g{scale:g}-dt{dt:g}-h{hold:g}.npz"
+    tag = f"g{scale:g}" + ("" if set(axes) == set("xyz") else axes) + (f"-tip{tip_fade:g}" if tip_fade else "")
+    path = None if out is None else Path(out) / f"agard-M{mach:g}-{tag}-dt{dt:g}-h{hold:g}.npz"
     if path is not None and path.exists():
         kept = np.load(path)
         if np.array_equal(kept["k"], K_TABLE):
             return kept["gaf"], float(kept["seconds"]), json.loads(str(kept["mean_flow"]))
     wing, mesh, modal = _wing()
-    solver = make_tsd_solver(**section_options(wing), grid_scale=scale, tsd_dt=dt)
+    solver = TsdSolver(**section_options(wing), grid=grid_spec(scale, axes), dt=dt, tip_fade=tip_fade)
     t0 = time.perf_counter()
     gaf = step_anchors(solver, mesh, modal.shapes, mach, K_TABLE, DT_STAR, hold=hold)  # the records on threads
     seconds = time.perf_counter() - t0
     mf = solver.last_mean_flow
-    summary = {} if mf is None else {"steady_steps": mf.steady.steps, "steady_t_star": mf.steady.steps * mf.dt,
+    summary = {} if mf is None else {"steady_steps": mf.steady.steps, "dt": mf.dt, "step_halvings": mf.step_halvings,
+                                     "steady_t_star": mf.steady.steps * mf.dt,
                                      "steady_converged": mf.steady.converged, "cp_star": mf.cp_star,
                                      "cp_min": float(min(mf.cp_upper.min(), mf.cp_lower.min()))}
     if path is not None:
@@ -83,14 +108,17 @@ def flutter_point(table: np.ndarray, k: np.ndarray, omega: np.ndarray, c_ref: fl
             "v_error_pct": None if v is None else 100.0 * (v / v_exp - 1.0)}
 
 
-def run(mach: float, scales: list[float], dts: list[float], hold: float, out: str | None) -> dict[str, Any]:
+def run(mach: float, scales: list[float], dts: list[float], hold: float, out: str | None,
+        axes: list[str] | None = None, tip_fade: float = 0.0) -> dict[str, Any]:
     """Step records of the 4 modes on each (grid scale, dt) pair, p-k on each transfer table and on the DLM's."""
     t0 = time.perf_counter()
     _, mesh, modal = _wing()
-    res: dict[str, Any] = {"mach": mach, "hold": hold, "v_exp": AGARD_EXPERIMENT[mach][1], "variants": []}
-    for s, d in zip(scales, dts, strict=True):
-        table, seconds, mean_flow = _table(mach, s, d, hold, out)
-        res["variants"].append({"grid_scale": s, "tsd_dt": d, "seconds": round(seconds, 1), "mean_flow": mean_flow,
+    res: dict[str, Any] = {"mach": mach, "hold": hold, "tip_fade": tip_fade, "v_exp": AGARD_EXPERIMENT[mach][1],
+                           "variants": []}
+    for s, d, ax in zip(scales, dts, axes or ["xyz"] * len(scales), strict=True):
+        table, seconds, mean_flow = _table(mach, s, d, hold, out, ax, tip_fade)
+        res["variants"].append({"grid_scale": s, "axes": ax, "tsd_dt": d, "seconds": round(seconds, 1),
+                                "mean_flow": mean_flow,
                                 **flutter_point(table, K_TABLE, modal.omega, mesh.c_ref, mach)})
     ref = res["variants"][0]["v_f"]
     for row in res["variants"]:
@@ -108,12 +136,18 @@ def main() -> None:
     ap.add_argument("--mach", type=float, default=0.960, choices=sorted(AGARD_EXPERIMENT))
     ap.add_argument("--grid-scale", type=float, nargs="+", default=[1.0, 2.0], help="grid scales, one per variant")
     ap.add_argument("--dt", type=float, nargs="+", default=[0.02, 0.01], help="tsd_dt of each variant (t*)")
+    ap.add_argument("--axes", nargs="+", default=None,
+                    help="the axes each variant's scale refines (any of x, y, z; default xyz: every axis)")
+    ap.add_argument("--tip-fade", type=float, default=0.0,
+                    help="TsdSolver.tip_fade (root chords): the thickness falls to zero over an elliptic tip cap")
     ap.add_argument("--hold", type=float, default=STEP_HOLD, help="step hold (t*)")
     ap.add_argument("--out", default=None, help="keep (and reuse) each mode's transfer column here")
     a = ap.parse_args()
-    if len(a.grid_scale) != len(a.dt):
-        ap.error("--grid-scale and --dt need one value each per variant")
-    print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out), indent=1))
+    if len(a.grid_scale) != len(a.dt) or (a.axes is not None and len(a.axes) != len(a.dt)):
+        ap.error("--grid-scale, --dt (and --axes) need one value each per variant")
+    if a.axes is not None and any(not ax or set(ax) - set("xyz") for ax in a.axes):
+        ap.error("--axes: each a combination of x, y and z")
+    print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, a.tip_fade), indent=1))
 
 
 if __name__ == "__main__":

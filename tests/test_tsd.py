@@ -218,6 +218,22 @@ def test_a_diverged_unsteady_run_is_repeated_from_the_steady_state_with_the_step
     np.testing.assert_array_equal(gac, ref)
 
 
+def test_tip_cap_averages_an_elliptic_cap_over_the_cells():
+    """tip_cap: 1 inboard, the cell averages of sqrt(1 - s^2) over the last ``width``, 0 outboard; its integral
+    over the span is (b - w) + pi w / 4 within 1e-4 (64 samples per cell); width 0 keeps the cut tip."""
+    from romams_core.aero.tsd.solver import tip_cap
+
+    b, w = 1.364, 0.08
+    yf = np.concatenate([np.linspace(0.0, b, 28), b + np.cumsum(np.full(5, 0.05))])
+    cap = tip_cap(yf, b, w)
+    assert np.all(cap[yf[1:] <= b - w] == 1.0) and np.all(cap[yf[:-1] >= b] == 0.0)
+    assert np.all(np.diff(cap) <= 0.0)
+    assert float(cap @ np.diff(yf)) == pytest.approx(b - w + math.pi * w / 4.0, abs=1e-4)
+    np.testing.assert_array_equal(tip_cap(yf, b, 0.0), np.ones(yf.size - 1))
+    with pytest.raises(InputError, match="tip_fade"):
+        TsdSolver(tip_fade=-0.1)
+
+
 def _harmonic_gaf(solver: TsdSolver, mesh, shapes: np.ndarray, mach: float, k: float) -> np.ndarray:
     """First-harmonic GAC matrix [m, m] of the TSD at reduced frequency k (3 cycles, the last analysed)."""
     dts, om = 0.1, 2.0 * k
