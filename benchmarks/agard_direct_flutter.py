@@ -11,10 +11,11 @@ The 4 records march on threads about one mean flow (``TsdSolver.simulate_records
 table is kept in ``--out`` and reused, so an interrupted study resumes at the variant where it stopped.
 
     python -m benchmarks.agard_direct_flutter [--mach 0.96] [--grid-scale 1 2] [--dt 0.02 0.01] [--hold 120]
-        [--axes xyz xyz] [--tip-fade W] [--out DIR]
+        [--axes xyz xyz] [--span-cluster 0.5] [--flat] [--out DIR]
 
 ``--axes`` refines one direction at a time (``x``: the chordwise and streamwise counts, ``y``: the spanwise,
-``z``: the normal count and the first height), to find which resolution moves the flutter point.
+``z``: the normal count and the first height), to find which resolution moves the flutter point; ``--span-cluster
+0`` makes the spanwise cells uniform (finer at the root than the default's); ``--flat`` drops the thickness.
 """
 
 from __future__ import annotations
@@ -59,11 +60,12 @@ def _wing() -> tuple[Any, Any, Any]:
 AXIS_FIELDS = {"x": ("n_chord", "n_upstream", "n_downstream"), "y": ("n_span", "n_outboard"), "z": ("n_z",)}
 
 
-def grid_spec(scale: float, axes: str = "xyz") -> GridSpec:
-    """The default TSD grid with the cell counts along ``axes`` (any of x, y, z) times ``scale`` (z: dz0 / scale)."""
+def grid_spec(scale: float, axes: str = "xyz", span_cluster: float = GridSpec.span_cluster) -> GridSpec:
+    """The default TSD grid with the cell counts along ``axes`` (any of x, y, z) times ``scale`` (z: dz0 / scale)
+    and the span's cells clustered by ``span_cluster`` (0: uniform)."""
     if set(axes) == set("xyz"):
-        return tsd_grid_spec(scale)
-    base, new = GridSpec(), {}
+        return replace(tsd_grid_spec(scale), span_cluster=span_cluster)
+    base, new = GridSpec(span_cluster=span_cluster), {}
     for axis in axes:
         for name in AXIS_FIELDS[axis]:
             new[name] = max(2, int(round(getattr(base, name) * scale)))
@@ -73,16 +75,19 @@ def grid_spec(scale: float, axes: str = "xyz") -> GridSpec:
 
 
 def _table(mach: float, scale: float, dt: float, hold: float, out: str | None, axes: str = "xyz",
-           tip_fade: float = 0.0) -> tuple[np.ndarray, float, dict[str, Any]]:
-    """(transfer matrix [nk, 4, 4] of the modes' step records, seconds, mean-flow summary) on one grid and step."""
-    tag = f"g{scale:g}" + ("" if set(axes) == set("xyz") else axes) + (f"-tip{tip_fade:g}" if tip_fade else "")
+           span_cluster: float = GridSpec.span_cluster, flat: bool = False) -> tuple[np.ndarray, float, dict[str, Any]]:
+    """(transfer matrix [nk, 4, 4] of the modes' step records, seconds, mean-flow summary) on one grid and step
+    (``flat``: the planform without thickness)."""
+    tag = (f"g{scale:g}" + ("" if set(axes) == set("xyz") else axes)
+           + ("" if span_cluster == GridSpec.span_cluster else f"-sc{span_cluster:g}") + ("-flat" if flat else ""))
     path = None if out is None else Path(out) / f"agard-M{mach:g}-{tag}-dt{dt:g}-h{hold:g}.npz"
     if path is not None and path.exists():
         kept = np.load(path)
         if np.array_equal(kept["k"], K_TABLE):
             return kept["gaf"], float(kept["seconds"]), json.loads(str(kept["mean_flow"]))
     wing, mesh, modal = _wing()
-    solver = TsdSolver(**section_options(wing), grid=grid_spec(scale, axes), dt=dt, tip_fade=tip_fade)
+    section = {} if flat else section_options(wing)
+    solver = TsdSolver(**section, grid=grid_spec(scale, axes, span_cluster), dt=dt)
     t0 = time.perf_counter()
     gaf = step_anchors(solver, mesh, modal.shapes, mach, K_TABLE, DT_STAR, hold=hold)  # the records on threads
     seconds = time.perf_counter() - t0
@@ -109,14 +114,15 @@ def flutter_point(table: np.ndarray, k: np.ndarray, omega: np.ndarray, c_ref: fl
 
 
 def run(mach: float, scales: list[float], dts: list[float], hold: float, out: str | None,
-        axes: list[str] | None = None, tip_fade: float = 0.0) -> dict[str, Any]:
+        axes: list[str] | None = None, span_cluster: float = GridSpec.span_cluster, flat: bool = False
+        ) -> dict[str, Any]:
     """Step records of the 4 modes on each (grid scale, dt) pair, p-k on each transfer table and on the DLM's."""
     t0 = time.perf_counter()
     _, mesh, modal = _wing()
-    res: dict[str, Any] = {"mach": mach, "hold": hold, "tip_fade": tip_fade, "v_exp": AGARD_EXPERIMENT[mach][1],
-                           "variants": []}
+    res: dict[str, Any] = {"mach": mach, "hold": hold, "span_cluster": span_cluster, "flat": flat,
+                           "v_exp": AGARD_EXPERIMENT[mach][1], "variants": []}
     for s, d, ax in zip(scales, dts, axes or ["xyz"] * len(scales), strict=True):
-        table, seconds, mean_flow = _table(mach, s, d, hold, out, ax, tip_fade)
+        table, seconds, mean_flow = _table(mach, s, d, hold, out, ax, span_cluster, flat)
         res["variants"].append({"grid_scale": s, "axes": ax, "tsd_dt": d, "seconds": round(seconds, 1),
                                 "mean_flow": mean_flow,
                                 **flutter_point(table, K_TABLE, modal.omega, mesh.c_ref, mach)})
@@ -138,8 +144,9 @@ def main() -> None:
     ap.add_argument("--dt", type=float, nargs="+", default=[0.02, 0.01], help="tsd_dt of each variant (t*)")
     ap.add_argument("--axes", nargs="+", default=None,
                     help="the axes each variant's scale refines (any of x, y, z; default xyz: every axis)")
-    ap.add_argument("--tip-fade", type=float, default=0.0,
-                    help="TsdSolver.tip_fade (root chords): the thickness falls to zero over an elliptic tip cap")
+    ap.add_argument("--span-cluster", type=float, default=GridSpec.span_cluster,
+                    help="GridSpec.span_cluster of every variant (0: uniform spanwise cells)")
+    ap.add_argument("--flat", action="store_true", help="the planform without its thickness (a flat plate)")
     ap.add_argument("--hold", type=float, default=STEP_HOLD, help="step hold (t*)")
     ap.add_argument("--out", default=None, help="keep (and reuse) each mode's transfer column here")
     a = ap.parse_args()
@@ -147,7 +154,7 @@ def main() -> None:
         ap.error("--grid-scale, --dt (and --axes) need one value each per variant")
     if a.axes is not None and any(not ax or set(ax) - set("xyz") for ax in a.axes):
         ap.error("--axes: each a combination of x, y and z")
-    print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, a.tip_fade), indent=1))
+    print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, a.span_cluster, a.flat), indent=1))
 
 
 if __name__ == "__main__":

@@ -60,6 +60,22 @@ def test_grid_is_fitted_to_the_planform():
     assert exc.value.field == "grid.n_chord"
 
 
+def test_span_clustering_weight():
+    """GridSpec.span_cluster: 0.5 (the default) makes the tip cells about 2.5x finer than the root's, 0 uniform;
+    scaled() keeps it; outside [0, 1] it is refused naming the field."""
+    def widths(spec: GridSpec) -> np.ndarray:
+        g = wing_grid(1.364, 0.659, 1.0, spec)
+        return np.diff(g.yf)[g.strips]
+
+    w = widths(GridSpec())
+    assert 2.3 < w[0] / w[-1] < 2.6  # the density ratio 2.57; 18 cells: 2.40
+    np.testing.assert_allclose(widths(GridSpec(span_cluster=0.0)), 1.364 / 18, rtol=1e-12)
+    assert GridSpec(span_cluster=0.0).scaled(2.0).span_cluster == 0.0
+    with pytest.raises(InputError) as exc:
+        GridSpec(span_cluster=1.5)
+    assert exc.value.field == "grid.span_cluster"
+
+
 def test_mesh_interpolation_is_exact_for_bilinear_fields():
     mesh = standard_mesh(AGARD_LIKE)
     xi = (mesh.x - AGARD_LIKE.x_le(mesh.y)) / AGARD_LIKE.chord(mesh.y)
@@ -216,22 +232,6 @@ def test_a_diverged_unsteady_run_is_repeated_from_the_steady_state_with_the_step
     _, ref = _small_run(0.05, 0)
     assert calls == [2, 4] and solver.step_halvings == 1  # 0.2 t* signal steps: 2 internal steps, then 4
     np.testing.assert_array_equal(gac, ref)
-
-
-def test_tip_cap_averages_an_elliptic_cap_over_the_cells():
-    """tip_cap: 1 inboard, the cell averages of sqrt(1 - s^2) over the last ``width``, 0 outboard; its integral
-    over the span is (b - w) + pi w / 4 within 1e-4 (64 samples per cell); width 0 keeps the cut tip."""
-    from romams_core.aero.tsd.solver import tip_cap
-
-    b, w = 1.364, 0.08
-    yf = np.concatenate([np.linspace(0.0, b, 28), b + np.cumsum(np.full(5, 0.05))])
-    cap = tip_cap(yf, b, w)
-    assert np.all(cap[yf[1:] <= b - w] == 1.0) and np.all(cap[yf[:-1] >= b] == 0.0)
-    assert np.all(np.diff(cap) <= 0.0)
-    assert float(cap @ np.diff(yf)) == pytest.approx(b - w + math.pi * w / 4.0, abs=1e-4)
-    np.testing.assert_array_equal(tip_cap(yf, b, 0.0), np.ones(yf.size - 1))
-    with pytest.raises(InputError, match="tip_fade"):
-        TsdSolver(tip_fade=-0.1)
 
 
 def _harmonic_gaf(solver: TsdSolver, mesh, shapes: np.ndarray, mach: float, k: float) -> np.ndarray:

@@ -12,7 +12,7 @@ grid then continues to y < 0 with a lateral far field of its own.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import brentq
@@ -31,6 +31,7 @@ class GridSpec:
     x_upstream: float = 8.0  # local chords ahead of the LE
     x_downstream: float = 10.0  # local chords behind the TE
     n_span: int = 18  # cells on the semispan, clustered toward the tip (a free wing's toward both edges)
+    span_cluster: float = 0.5  # weight of the sine clustering of the span's cells (0 uniform; 0.5: tip 2.6x finer)
     n_outboard: int = 10  # cells beyond the tip (and, for a free wing, as many below the root)
     y_outboard: float = 2.5  # far lateral boundary, in semispans from the root (y_outboard - 1 beyond each edge)
     n_z: int = 22  # cells on each side of the mean plane
@@ -49,8 +50,10 @@ class GridSpec:
                 raise InputError(f"grid.{name}", f"must be a finite number > 0, got {v!r}")
         if self.y_outboard <= 1.0:
             raise InputError("grid.y_outboard", f"must be > 1 semispan, got {self.y_outboard}")
-        if not (isinstance(self.cluster, int | float) and 0.0 <= self.cluster <= 1.0):
-            raise InputError("grid.cluster", f"must be in [0, 1], got {self.cluster!r}")
+        for name in ("cluster", "span_cluster"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and 0.0 <= v <= 1.0):
+                raise InputError(f"grid.{name}", f"must be in [0, 1], got {v!r}")
         if self.dz0 * self.n_z >= self.z_max:
             raise InputError("grid.dz0", f"dz0 * n_z = {self.dz0 * self.n_z:g} must be below z_max = {self.z_max:g}")
 
@@ -58,11 +61,8 @@ class GridSpec:
         """The same grid with every cell count multiplied and the first heights divided by ``factor``."""
         def n(v: int) -> int:
             return max(2, int(round(v * factor)))
-        return GridSpec(n_chord=n(self.n_chord), cluster=self.cluster, n_upstream=n(self.n_upstream),
-                        n_downstream=n(self.n_downstream),
-                        x_upstream=self.x_upstream, x_downstream=self.x_downstream, n_span=n(self.n_span),
-                        n_outboard=n(self.n_outboard), y_outboard=self.y_outboard, n_z=n(self.n_z),
-                        dz0=self.dz0 / factor, z_max=self.z_max)
+        return replace(self, n_chord=n(self.n_chord), n_upstream=n(self.n_upstream), n_downstream=n(self.n_downstream),
+                       n_span=n(self.n_span), n_outboard=n(self.n_outboard), n_z=n(self.n_z), dz0=self.dz0 / factor)
 
 
 #: the grid's root condition for each wing symmetry (romams_core.wing.SYMMETRIES)
@@ -216,10 +216,11 @@ def _z_faces(spec: GridSpec) -> np.ndarray:
     return np.concatenate((-half[::-1], half[1:]))
 
 
-def _span_faces(length: float, n: int) -> np.ndarray:
-    """n+1 faces on [0, length] (c_ref units) clustered toward ``length`` (a tip: cells 2.6x finer than at 0)."""
+def _span_faces(length: float, n: int, weight: float = 0.5) -> np.ndarray:
+    """n+1 faces on [0, length] (c_ref units) clustered toward ``length`` by a sine of ``weight`` (0 uniform; 0.5:
+    a tip's cells 2.6x finer than at 0)."""
     s = np.linspace(0.0, 1.0, n + 1)
-    return length * (0.5 * np.sin(0.5 * np.pi * s) + 0.5 * s)
+    return length * (weight * np.sin(0.5 * np.pi * s) + (1.0 - weight) * s)
 
 
 def wing_grid(semispan: float, taper: float, tan_sweep: float, spec: GridSpec | None = None,
@@ -234,12 +235,13 @@ def wing_grid(semispan: float, taper: float, tan_sweep: float, spec: GridSpec | 
         raise InputError("planform.semispan", f"must be > 0, got {semispan!r}")
     if root == "open":  # (an unknown root is refused by TsdGrid)
         half, n_lo = 0.5 * semispan, spec.n_span // 2
-        upper, lower = half + _span_faces(half, spec.n_span - n_lo), half - _span_faces(half, n_lo)[::-1]
+        upper = half + _span_faces(half, spec.n_span - n_lo, spec.span_cluster)
+        lower = half - _span_faces(half, n_lo, spec.span_cluster)[::-1]
         wing_y = np.concatenate((lower, upper[1:]))
         below = geometric_faces(wing_y[1] - wing_y[0], (spec.y_outboard - 1.0) * semispan, spec.n_outboard)
         inner = np.concatenate((-below[:0:-1], wing_y))  # the root edge is a tip too
     else:
-        wing_y = inner = _span_faces(semispan, spec.n_span)
+        wing_y = inner = _span_faces(semispan, spec.n_span, spec.span_cluster)
     h_tip = wing_y[-1] - wing_y[-2]
     out = geometric_faces(h_tip, (spec.y_outboard - 1.0) * semispan, spec.n_outboard)
     yf = np.concatenate((inner, semispan + out[1:]))

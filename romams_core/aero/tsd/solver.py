@@ -97,21 +97,6 @@ def check_thickness(form: str | None, t_c: float) -> tuple[str | None, float]:
     return form, float(t_c)
 
 
-def tip_cap(yf: np.ndarray, semispan: float, width: float, samples: int = 64) -> np.ndarray:
-    """[nj] cell averages over the spanwise faces yf of an elliptic tip cap: 1 inboard of semispan - width, then
-    sqrt(1 - s^2) with s = (y - semispan + width) / width, 0 beyond the tip (all 1 inboard when width is 0).
-
-    Thin-wing theory puts a source sheet of the section's thickness slope on the planform. Ended abruptly at the tip,
-    the sheet's edge is a logarithmic singularity of the perturbation velocity, which a transonic mean flow turns
-    into a supersonic region that grows with the spanwise resolution (docs/transonic.md 7.14)."""
-    if width <= 0.0:
-        return np.ones(yf.size - 1)
-    u = np.linspace(0.0, 1.0, samples + 1)[1:] - 0.5 / samples  # midpoints of the sub-cells
-    y = yf[:-1, None] + np.diff(yf)[:, None] * u[None, :]
-    s = np.clip((y - semispan + width) / width, 0.0, 1.0)
-    return np.where(y < semispan, np.sqrt(1.0 - s * s), 0.0).mean(axis=1)
-
-
 def mesh_interpolation(mesh: StandardMesh, xi: np.ndarray, eta: np.ndarray) -> sp.csr_matrix:
     """Sparse [K, N] bilinear interpolation of standard-mesh nodal values at chord/span fractions xi, eta."""
     nc, ns = mesh.n_chord, mesh.n_span
@@ -208,7 +193,6 @@ class TsdSolver:
     symmetry: str = "symmetric"  # of the root plane: symmetric, antisymmetric or none (a free wing)
     te_cells_per_step: float = TE_CELLS_PER_STEP  # the step cap in trailing-edge cells (``time_step``)
     max_step_halvings: int = MAX_STEP_HALVINGS  # retries of a diverged run, each at half the step
-    tip_fade: float = 0.0  # width (root chords) of an elliptic tip cap over which the thickness falls to 0; 0: cut
     last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
     step_halvings: int = field(default=0, init=False)  # halvings this solver needed so far (kept for later runs)
 
@@ -220,8 +204,6 @@ class TsdSolver:
         if not (math.isfinite(self.dt) and 0.0 < self.dt <= 0.2):
             raise InputError("dt", f"must be in (0, 0.2] (t* units), got {self.dt!r}")
         image_sign(self.symmetry)  # InputError naming symmetry
-        if not (isinstance(self.tip_fade, int | float) and math.isfinite(self.tip_fade) and 0 <= self.tip_fade <= 0.5):
-            raise InputError("tip_fade", f"must be in [0, 0.5] root chords, got {self.tip_fade!r}")
         if not (isinstance(self.max_step_halvings, int) and 0 <= self.max_step_halvings <= 6):
             raise InputError("max_step_halvings", f"must be an integer in [0, 6], got {self.max_step_halvings!r}")
 
@@ -244,15 +226,14 @@ class TsdSolver:
                          kinks, root=ROOT_OF_SYMMETRY[self.symmetry])
 
     def _thickness_slope(self, grid: TsdGrid) -> np.ndarray:
-        """[ni, nj] half-thickness slope d(tau)/dx on the wing nodes (cell averages; zero off the wing), faded to
-        zero at the tip over ``tip_fade``."""
+        """[ni] half-thickness slope d(tau)/dx on the wing nodes (cell averages; zero off the chord)."""
         if self.thickness_form is None:
-            return np.zeros(grid.wing.shape)
+            return np.zeros(grid.xc.size)
         from romams_core.structure.modal import thickness_form
 
         tform = thickness_form(self.thickness_form, np.clip(grid.xf, 0.0, 1.0))
         slope = 0.5 * self.thickness_to_chord * np.diff(tform) / np.diff(grid.xf)
-        return np.where(grid.wing, slope[:, None] * tip_cap(grid.yf, grid.semispan, self.tip_fade)[None, :], 0.0)
+        return np.where((grid.xc > 0) & (grid.xc < 1), slope, 0.0)
 
     def _shape_operators(self, mesh: StandardMesh, grid: TsdGrid, shapes: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -330,7 +311,7 @@ class TsdSolver:
     def _mean_flow(self, grid: TsdGrid, mach: float, progress: ProgressFn | None, share: float) -> TsdFlow:
         """One steady march at the current step (``mean_flow``); Diverged when its field became non-finite."""
         flow = TsdFlow(grid, tsd_coefficients(mach, self.coefficients), sponge_rate=self.sponge_rate)
-        slope = self._thickness_slope(grid)
+        slope = self._thickness_slope(grid)[:, None]
         flow.w_up[...] = np.where(grid.wing, slope, 0.0)
         flow.w_lo[...] = np.where(grid.wing, -slope, 0.0)
 
