@@ -11,7 +11,7 @@ The 4 records march on threads about one mean flow (``TsdSolver.simulate_records
 table is kept in ``--out`` and reused, so an interrupted study resumes at the variant where it stopped.
 
     python -m benchmarks.agard_direct_flutter [--mach 0.96] [--grid-scale 1 2] [--dt 0.02 0.01] [--hold 120]
-        [--axes xyz xyz] [--span-cluster 0.5] [--flat] [--out DIR]
+        [--axes xyz xyz] [--span-cluster 0.5] [--flat] [--coefficients ames] [--out DIR]
 
 ``--axes`` refines one direction at a time (``x``: the chordwise and streamwise counts, ``y``: the spanwise,
 ``z``: the normal count and the first height), to find which resolution moves the flutter point; ``--span-cluster
@@ -35,6 +35,7 @@ from benchmarks.validate_tsd import AGARD_MU, fsi
 from romams.services.training import section_options
 from romams_core.aero.dlm import frequency_response
 from romams_core.aero.tsd import TsdSolver
+from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS
 from romams_core.aero.tsd.grid import GridSpec
 from romams_core.anchors import STEP_HOLD, step_anchors
 from romams_core.mesh import standard_mesh
@@ -75,11 +76,13 @@ def grid_spec(scale: float, axes: str = "xyz", span_cluster: float = GridSpec.sp
 
 
 def _table(mach: float, scale: float, dt: float, hold: float, out: str | None, axes: str = "xyz",
-           span_cluster: float = GridSpec.span_cluster, flat: bool = False) -> tuple[np.ndarray, float, dict[str, Any]]:
+           span_cluster: float = GridSpec.span_cluster, flat: bool = False, coefficients: str = "ames"
+           ) -> tuple[np.ndarray, float, dict[str, Any]]:
     """(transfer matrix [nk, 4, 4] of the modes' step records, seconds, mean-flow summary) on one grid and step
     (``flat``: the planform without thickness)."""
     tag = (f"g{scale:g}" + ("" if set(axes) == set("xyz") else axes)
-           + ("" if span_cluster == GridSpec.span_cluster else f"-sc{span_cluster:g}") + ("-flat" if flat else ""))
+           + ("" if span_cluster == GridSpec.span_cluster else f"-sc{span_cluster:g}") + ("-flat" if flat else "")
+           + ("" if coefficients == "ames" else f"-{coefficients}"))
     path = None if out is None else Path(out) / f"agard-M{mach:g}-{tag}-dt{dt:g}-h{hold:g}.npz"
     if path is not None and path.exists():
         kept = np.load(path)
@@ -87,7 +90,7 @@ def _table(mach: float, scale: float, dt: float, hold: float, out: str | None, a
             return kept["gaf"], float(kept["seconds"]), json.loads(str(kept["mean_flow"]))
     wing, mesh, modal = _wing()
     section = {} if flat else section_options(wing)
-    solver = TsdSolver(**section, grid=grid_spec(scale, axes, span_cluster), dt=dt)
+    solver = TsdSolver(**section, grid=grid_spec(scale, axes, span_cluster), dt=dt, coefficients=coefficients)
     t0 = time.perf_counter()
     gaf = step_anchors(solver, mesh, modal.shapes, mach, K_TABLE, DT_STAR, hold=hold)  # the records on threads
     seconds = time.perf_counter() - t0
@@ -114,15 +117,16 @@ def flutter_point(table: np.ndarray, k: np.ndarray, omega: np.ndarray, c_ref: fl
 
 
 def run(mach: float, scales: list[float], dts: list[float], hold: float, out: str | None,
-        axes: list[str] | None = None, span_cluster: float = GridSpec.span_cluster, flat: bool = False
-        ) -> dict[str, Any]:
+        axes: list[str] | None = None, span_cluster: float = GridSpec.span_cluster, flat: bool = False,
+        coefficients: str = "ames") -> dict[str, Any]:
     """Step records of the 4 modes on each (grid scale, dt) pair, p-k on each transfer table and on the DLM's."""
     t0 = time.perf_counter()
     _, mesh, modal = _wing()
     res: dict[str, Any] = {"mach": mach, "hold": hold, "span_cluster": span_cluster, "flat": flat,
+                           "coefficients": coefficients,
                            "v_exp": AGARD_EXPERIMENT[mach][1], "variants": []}
     for s, d, ax in zip(scales, dts, axes or ["xyz"] * len(scales), strict=True):
-        table, seconds, mean_flow = _table(mach, s, d, hold, out, ax, span_cluster, flat)
+        table, seconds, mean_flow = _table(mach, s, d, hold, out, ax, span_cluster, flat, coefficients)
         res["variants"].append({"grid_scale": s, "axes": ax, "tsd_dt": d, "seconds": round(seconds, 1),
                                 "mean_flow": mean_flow,
                                 **flutter_point(table, K_TABLE, modal.omega, mesh.c_ref, mach)})
@@ -147,6 +151,8 @@ def main() -> None:
     ap.add_argument("--span-cluster", type=float, default=GridSpec.span_cluster,
                     help="GridSpec.span_cluster of every variant (0: uniform spanwise cells)")
     ap.add_argument("--flat", action="store_true", help="the planform without its thickness (a flat plate)")
+    ap.add_argument("--coefficients", default="ames", choices=COEFFICIENT_SETS,
+                    help="the TSD coefficient set (2d: no cross-flow terms G, H)")
     ap.add_argument("--hold", type=float, default=STEP_HOLD, help="step hold (t*)")
     ap.add_argument("--out", default=None, help="keep (and reuse) each mode's transfer column here")
     a = ap.parse_args()
@@ -154,7 +160,8 @@ def main() -> None:
         ap.error("--grid-scale, --dt (and --axes) need one value each per variant")
     if a.axes is not None and any(not ax or set(ax) - set("xyz") for ax in a.axes):
         ap.error("--axes: each a combination of x, y and z")
-    print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, a.span_cluster, a.flat), indent=1))
+    print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, a.span_cluster, a.flat,
+                                     a.coefficients), indent=1))
 
 
 if __name__ == "__main__":
