@@ -11,7 +11,8 @@ The 4 records march on threads about one mean flow (``TsdSolver.simulate_records
 table is kept in ``--out`` and reused, so an interrupted study resumes at the variant where it stopped.
 
     python -m benchmarks.agard_direct_flutter [--mach 0.96] [--grid-scale 1 2] [--dt 0.02 0.01] [--hold 120]
-        [--axes xyz xyz] [--span-cluster 0.5] [--flat] [--coefficients ames] [--out DIR]
+        [--axes xyz xyz] [--span-cluster 0.5] [--flat] [--coefficients ames] [--sweep DEG]
+        [--out DIR]
 
 ``--axes`` refines one direction at a time (``x``: the chordwise and streamwise counts, ``y``: the spanwise,
 ``z``: the normal count and the first height), to find which resolution moves the flutter point; ``--span-cluster
@@ -50,9 +51,12 @@ K_TABLE = np.round(np.arange(0.0, 1.0 + 1e-9, 0.005), 9)
 DT_STAR = 0.1
 
 
-def _wing() -> tuple[Any, Any, Any]:
-    """(wing, standard mesh, its own 4 modes) of the AGARD 445.6 weakened wing."""
+def _wing(sweep_deg: float | None = None) -> tuple[Any, Any, Any]:
+    """(wing, standard mesh, its own 4 modes) of the AGARD 445.6 weakened wing (``sweep_deg``: with that
+    leading-edge sweep instead of its 45 degrees at the quarter chord, the modes recomputed)."""
     wing = template("agard-445.6")
+    if sweep_deg is not None:
+        wing = replace(wing, planform=replace(wing.planform, sweep_le=math.radians(sweep_deg)))
     mesh = standard_mesh(wing.planform)
     return wing, mesh, modal_analysis(wing, None, 4, mesh)
 
@@ -76,19 +80,20 @@ def grid_spec(scale: float, axes: str = "xyz", span_cluster: float = GridSpec.sp
 
 
 def _table(mach: float, scale: float, dt: float, hold: float, out: str | None, axes: str = "xyz",
-           span_cluster: float = GridSpec.span_cluster, flat: bool = False, coefficients: str = "ames"
-           ) -> tuple[np.ndarray, float, dict[str, Any]]:
+           span_cluster: float = GridSpec.span_cluster, flat: bool = False, coefficients: str = "ames",
+           sweep_deg: float | None = None) -> tuple[np.ndarray, float, dict[str, Any]]:
     """(transfer matrix [nk, 4, 4] of the modes' step records, seconds, mean-flow summary) on one grid and step
     (``flat``: the planform without thickness)."""
     tag = (f"g{scale:g}" + ("" if set(axes) == set("xyz") else axes)
            + ("" if span_cluster == GridSpec.span_cluster else f"-sc{span_cluster:g}") + ("-flat" if flat else "")
-           + ("" if coefficients == "ames" else f"-{coefficients}"))
+           + ("" if coefficients == "ames" else f"-{coefficients}")
+           + ("" if sweep_deg is None else f"-sw{sweep_deg:g}"))
     path = None if out is None else Path(out) / f"agard-M{mach:g}-{tag}-dt{dt:g}-h{hold:g}.npz"
     if path is not None and path.exists():
         kept = np.load(path)
         if np.array_equal(kept["k"], K_TABLE):
             return kept["gaf"], float(kept["seconds"]), json.loads(str(kept["mean_flow"]))
-    wing, mesh, modal = _wing()
+    wing, mesh, modal = _wing(sweep_deg)
     section = {} if flat else section_options(wing)
     solver = TsdSolver(**section, grid=grid_spec(scale, axes, span_cluster), dt=dt, coefficients=coefficients)
     t0 = time.perf_counter()
@@ -116,20 +121,36 @@ def flutter_point(table: np.ndarray, k: np.ndarray, omega: np.ndarray, c_ref: fl
             "v_error_pct": None if v is None else 100.0 * (v / v_exp - 1.0)}
 
 
+#: reduced frequencies at which each variant's transfer matrix is compared with the first variant's
+TABLE_CHANGE_K = (0.0, 0.05, 0.08, 0.15, 0.3)
+
+
+def table_change(ref: np.ndarray, table: np.ndarray, k: float) -> float:
+    """Largest entry difference of two transfer tables [nk, 4, 4] at the K_TABLE point nearest k, % of ref's
+    largest entry there."""
+    i = int(np.argmin(np.abs(K_TABLE - k)))
+    return float(100.0 * np.abs(table[i] - ref[i]).max() / np.abs(ref[i]).max())
+
+
 def run(mach: float, scales: list[float], dts: list[float], hold: float, out: str | None,
         axes: list[str] | None = None, span_cluster: float = GridSpec.span_cluster, flat: bool = False,
-        coefficients: str = "ames") -> dict[str, Any]:
+        coefficients: str = "ames", sweep_deg: float | None = None) -> dict[str, Any]:
     """Step records of the 4 modes on each (grid scale, dt) pair, p-k on each transfer table and on the DLM's."""
     t0 = time.perf_counter()
-    _, mesh, modal = _wing()
+    _, mesh, modal = _wing(sweep_deg)
     res: dict[str, Any] = {"mach": mach, "hold": hold, "span_cluster": span_cluster, "flat": flat,
-                           "coefficients": coefficients,
+                           "coefficients": coefficients, "sweep_deg": sweep_deg,
                            "v_exp": AGARD_EXPERIMENT[mach][1], "variants": []}
+    tables = []
     for s, d, ax in zip(scales, dts, axes or ["xyz"] * len(scales), strict=True):
-        table, seconds, mean_flow = _table(mach, s, d, hold, out, ax, span_cluster, flat, coefficients)
+        table, seconds, mean_flow = _table(mach, s, d, hold, out, ax, span_cluster, flat, coefficients, sweep_deg)
+        tables.append(table)
         res["variants"].append({"grid_scale": s, "axes": ax, "tsd_dt": d, "seconds": round(seconds, 1),
                                 "mean_flow": mean_flow,
                                 **flutter_point(table, K_TABLE, modal.omega, mesh.c_ref, mach)})
+    first = tables[0]
+    for row, table in zip(res["variants"], tables, strict=True):  # how far each table is from the first one's
+        row["table_change_pct"] = {f"{kk:g}": table_change(first, table, kk) for kk in TABLE_CHANGE_K}
     ref = res["variants"][0]["v_f"]
     for row in res["variants"]:
         row["change_pct"] = None if ref is None or row["v_f"] is None else 100.0 * (row["v_f"] / ref - 1.0)
@@ -153,6 +174,8 @@ def main() -> None:
     ap.add_argument("--flat", action="store_true", help="the planform without its thickness (a flat plate)")
     ap.add_argument("--coefficients", default="ames", choices=COEFFICIENT_SETS,
                     help="the TSD coefficient set (2d: no cross-flow terms G, H)")
+    ap.add_argument("--sweep", type=float, default=None,
+                    help="leading-edge sweep (deg) instead of the wing's; its modes recomputed (not the tunnel's wing)")
     ap.add_argument("--hold", type=float, default=STEP_HOLD, help="step hold (t*)")
     ap.add_argument("--out", default=None, help="keep (and reuse) each mode's transfer column here")
     a = ap.parse_args()
@@ -161,7 +184,7 @@ def main() -> None:
     if a.axes is not None and any(not ax or set(ax) - set("xyz") for ax in a.axes):
         ap.error("--axes: each a combination of x, y and z")
     print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, a.span_cluster, a.flat,
-                                     a.coefficients), indent=1))
+                                     a.coefficients, a.sweep), indent=1))
 
 
 if __name__ == "__main__":
