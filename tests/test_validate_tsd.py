@@ -58,3 +58,24 @@ def test_direct_table_flutter_point_matches_the_rom_route_on_the_dlm() -> None:
     assert direct["v_f"] == pytest.approx(v_rom, rel=5e-3)
     assert direct["omega_f"] == pytest.approx(r.omega_flutter_rad_s, rel=1e-2)
     assert 6.0 < direct["v_error_pct"] < 8.0
+
+
+def test_direct_study_grids_and_table_change() -> None:
+    """``agard_direct_flutter.grid_spec`` refines only the named axes (z: the first height too), every axis as
+    ``tsd_grid_spec``; ``table_change`` is the largest entry difference in % of the reference's largest entry."""
+    import numpy as np
+
+    from benchmarks.agard_direct_flutter import K_TABLE, grid_spec, table_change
+    from romams_core.aero.tsd.grid import GridSpec
+    from romams_core.training_tsd import tsd_grid_spec
+
+    base = GridSpec()
+    y = grid_spec(2.0, "y")
+    assert (y.n_span, y.n_outboard) == (36, 20) and (y.n_chord, y.n_z, y.dz0) == (base.n_chord, base.n_z, base.dz0)
+    z = grid_spec(1.5, "z")
+    assert z.n_z == 33 and z.dz0 == pytest.approx(base.dz0 / 1.5) and z.n_span == base.n_span
+    assert grid_spec(1.25) == tsd_grid_spec(1.25) and grid_spec(2.0, "y", 0.0).span_cluster == 0.0
+    ref = np.ones((K_TABLE.size, 4, 4), dtype=complex)
+    other = ref.copy()
+    other[:, 1, 2] += 0.03j
+    assert table_change(ref, other, 0.08) == pytest.approx(3.0)
