@@ -42,7 +42,6 @@ from romams_core.anchors import STEP_HOLD, step_anchors
 from romams_core.mesh import standard_mesh
 from romams_core.pk import AeroTable, pk_flutter
 from romams_core.structure.modal import modal_analysis
-from romams_core.training_tsd import tsd_grid_spec
 from romams_core.wing import template
 
 #: the p-k table's reduced frequencies (on c_ref / 2): AGARD flutters near k 0.08 at M 0.96
@@ -61,29 +60,18 @@ def _wing(sweep_deg: float | None = None) -> tuple[Any, Any, Any]:
     return wing, mesh, modal_analysis(wing, None, 4, mesh)
 
 
-#: the default grid's cell counts (and first height) that a refinement along each axis scales
-AXIS_FIELDS = {"x": ("n_chord", "n_upstream", "n_downstream"), "y": ("n_span", "n_outboard"), "z": ("n_z",)}
-
-
 def grid_spec(scale: float, axes: str = "xyz", span_cluster: float = GridSpec.span_cluster) -> GridSpec:
     """The default TSD grid with the cell counts along ``axes`` (any of x, y, z) times ``scale`` (z: dz0 / scale)
     and the span's cells clustered by ``span_cluster`` (0: uniform)."""
-    if set(axes) == set("xyz"):
-        return replace(tsd_grid_spec(scale), span_cluster=span_cluster)
-    base, new = GridSpec(span_cluster=span_cluster), {}
-    for axis in axes:
-        for name in AXIS_FIELDS[axis]:
-            new[name] = max(2, int(round(getattr(base, name) * scale)))
-    if "z" in axes:
-        new["dz0"] = base.dz0 / scale
-    return replace(base, **new)
+    return GridSpec(span_cluster=span_cluster).scaled(scale, axes)
 
 
-def _table(mach: float, scale: float, dt: float, hold: float, out: str | None, axes: str = "xyz",
+def _table(wing: tuple[Any, Any, Any], mach: float, scale: float, dt: float, hold: float, out: str | None,
+           axes: str = "xyz",
            span_cluster: float = GridSpec.span_cluster, flat: bool = False, coefficients: str = "ames",
            sweep_deg: float | None = None) -> tuple[np.ndarray, float, dict[str, Any]]:
-    """(transfer matrix [nk, 4, 4] of the modes' step records, seconds, mean-flow summary) on one grid and step
-    (``flat``: the planform without thickness)."""
+    """(transfer matrix [nk, 4, 4] of the modes' step records, seconds, mean-flow summary) of ``wing`` (``_wing``'s
+    triple, of the same ``sweep_deg``) on one grid and step (``flat``: the planform without thickness)."""
     tag = (f"g{scale:g}" + ("" if set(axes) == set("xyz") else axes)
            + ("" if span_cluster == GridSpec.span_cluster else f"-sc{span_cluster:g}") + ("-flat" if flat else "")
            + ("" if coefficients == "ames" else f"-{coefficients}")
@@ -93,8 +81,8 @@ def _table(mach: float, scale: float, dt: float, hold: float, out: str | None, a
         kept = np.load(path)
         if np.array_equal(kept["k"], K_TABLE):
             return kept["gaf"], float(kept["seconds"]), json.loads(str(kept["mean_flow"]))
-    wing, mesh, modal = _wing(sweep_deg)
-    section = {} if flat else section_options(wing)
+    definition, mesh, modal = wing
+    section = {} if flat else section_options(definition)
     solver = TsdSolver(**section, grid=grid_spec(scale, axes, span_cluster), dt=dt, coefficients=coefficients)
     t0 = time.perf_counter()
     gaf = step_anchors(solver, mesh, modal.shapes, mach, K_TABLE, DT_STAR, hold=hold)  # the records on threads
@@ -137,13 +125,15 @@ def run(mach: float, scales: list[float], dts: list[float], hold: float, out: st
         coefficients: str = "ames", sweep_deg: float | None = None) -> dict[str, Any]:
     """Step records of the 4 modes on each (grid scale, dt) pair, p-k on each transfer table and on the DLM's."""
     t0 = time.perf_counter()
-    _, mesh, modal = _wing(sweep_deg)
+    wing = _wing(sweep_deg)
+    _, mesh, modal = wing
     res: dict[str, Any] = {"mach": mach, "hold": hold, "span_cluster": span_cluster, "flat": flat,
                            "coefficients": coefficients, "sweep_deg": sweep_deg,
                            "v_exp": AGARD_EXPERIMENT[mach][1], "variants": []}
     tables = []
     for s, d, ax in zip(scales, dts, axes or ["xyz"] * len(scales), strict=True):
-        table, seconds, mean_flow = _table(mach, s, d, hold, out, ax, span_cluster, flat, coefficients, sweep_deg)
+        table, seconds, mean_flow = _table(wing, mach, s, d, hold, out, ax, span_cluster, flat, coefficients,
+                                           sweep_deg)
         tables.append(table)
         res["variants"].append({"grid_scale": s, "axes": ax, "tsd_dt": d, "seconds": round(seconds, 1),
                                 "mean_flow": mean_flow,

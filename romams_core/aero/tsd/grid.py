@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from scipy.optimize import brentq
@@ -57,12 +58,19 @@ class GridSpec:
         if self.dz0 * self.n_z >= self.z_max:
             raise InputError("grid.dz0", f"dz0 * n_z = {self.dz0 * self.n_z:g} must be below z_max = {self.z_max:g}")
 
-    def scaled(self, factor: float) -> GridSpec:
-        """The same grid with every cell count multiplied and the first heights divided by ``factor``."""
+    def scaled(self, factor: float, axes: str = "xyz") -> GridSpec:
+        """The same grid with the cell counts along ``axes`` (any of x, y, z; default all) multiplied by ``factor``
+        (z: the first height divided by it)."""
         def n(v: int) -> int:
             return max(2, int(round(v * factor)))
-        return replace(self, n_chord=n(self.n_chord), n_upstream=n(self.n_upstream), n_downstream=n(self.n_downstream),
-                       n_span=n(self.n_span), n_outboard=n(self.n_outboard), n_z=n(self.n_z), dz0=self.dz0 / factor)
+        new: dict[str, Any] = {name: n(getattr(self, name)) for axis in axes for name in AXIS_COUNTS[axis]}
+        if "z" in axes:
+            new["dz0"] = self.dz0 / factor
+        return replace(self, **new)
+
+
+#: the cell counts of a GridSpec along each axis (``GridSpec.scaled``)
+AXIS_COUNTS = {"x": ("n_chord", "n_upstream", "n_downstream"), "y": ("n_span", "n_outboard"), "z": ("n_z",)}
 
 
 #: the grid's root condition for each wing symmetry (romams_core.wing.SYMMETRIES)
