@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.validate_dlm import AGARD_EXPERIMENT
-from benchmarks.validate_tsd import AGARD_MU, fsi
+from benchmarks.validate_tsd import matched_mach_values
 from romams.services.training import section_options
 from romams_core.aero.dlm import frequency_response
 from romams_core.aero.tsd import TsdSolver
@@ -103,10 +103,8 @@ def flutter_point(table: np.ndarray, k: np.ndarray, omega: np.ndarray, c_ref: fl
     rho, v_exp, _ = AGARD_EXPERIMENT[mach]
     p = pk_flutter(omega, AeroTable(k, table), c_ref, mach, sweep="constant-speed", rho_ref=rho,
                    a_ref=v_exp / mach)
-    v = None if p.q_flutter_pa is None else math.sqrt(2.0 * p.q_flutter_pa / rho)
-    return {"v_f": v, "omega_f": p.omega_flutter_rad_s, "k_f": p.k_flutter, "mode": p.flutter_mode,
-            "fsi": None if v is None else fsi(v, rho, (rho, AGARD_MU[mach])),
-            "v_error_pct": None if v is None else 100.0 * (v / v_exp - 1.0)}
+    return {**matched_mach_values(p.q_flutter_pa, mach), "omega_f": p.omega_flutter_rad_s, "k_f": p.k_flutter,
+            "mode": p.flutter_mode}
 
 
 #: reduced frequencies at which each variant's transfer matrix is compared with the first variant's

@@ -64,6 +64,16 @@ def fsi(v: float, rho: float, mass_ratio_ref: tuple[float, float]) -> float:
 AGARD_MU = {0.499: 33.465, 0.678: 68.753, 0.901: 143.920, 0.960: 225.820}
 
 
+def matched_mach_values(q_flutter_pa: float | None, mach: float) -> dict[str, float | None]:
+    """Equivalent flutter speed sqrt(2 q_f / rho_exp) (m/s), its FSI and its error against the experiment (%) of a
+    matched-Mach flutter dynamic pressure (Pa) at the AGARD point ``mach`` (all None without flutter)."""
+    if q_flutter_pa is None:
+        return {"v_f": None, "fsi": None, "v_error_pct": None}
+    rho, v_exp, _ = AGARD_EXPERIMENT[mach]
+    v = math.sqrt(2.0 * q_flutter_pa / rho)
+    return {"v_f": v, "fsi": fsi(v, rho, (rho, AGARD_MU[mach])), "v_error_pct": 100.0 * (v / v_exp - 1.0)}
+
+
 def _guarded(fn: Any) -> Any:
     """Run a point function; a TrainingError becomes a row with its message (the other points still run)."""
     from functools import wraps
@@ -102,7 +112,8 @@ def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     # experimental density gives the equivalent speed sqrt(2 q_f / rho_exp) and the FSI
     r = flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, sweep="constant-speed", rho_ref=rho,
                          a_ref=v_exp / mach)
-    v = None if r.q_flutter_pa is None else math.sqrt(2.0 * r.q_flutter_pa / rho)
+    matched = matched_mach_values(r.q_flutter_pa, mach)
+    v = matched["v_f"]
     # constant density at the experimental density, V swept from 0 (the DLM's table in aerodynamics.md 13.2)
     rd = flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, sweep="constant-density", rho_ref=rho,
                           a_ref=v_exp / mach, v_max=2.0 * v_exp, k_band=getattr(rom, "k_max", None))
@@ -110,9 +121,8 @@ def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
         "case": "agard-445.6", "mach": mach, "solver": solver, "options": options, "rho": rho, "v_f": v,
         "rho_f": r.rho_flutter, "k_f": r.k_flutter,
         "omega_f": r.omega_flutter_rad_s, "mode": r.flutter_mode, "v_exp": v_exp, "omega_exp": w_exp,
-        "fsi": None if v is None else fsi(v, rho, (rho, AGARD_MU[mach])),
-        "fsi_exp": fsi(v_exp, rho, (rho, AGARD_MU[mach])),
-        "v_error_pct": None if v is None else 100.0 * (v / v_exp - 1.0),
+        "fsi": matched["fsi"], "fsi_exp": fsi(v_exp, rho, (rho, AGARD_MU[mach])),
+        "v_error_pct": matched["v_error_pct"],
         "constant_density": {"v_f": rd.v_flutter_m_s, "omega_f": rd.omega_flutter_rad_s, "k_f": rd.k_flutter,
                              "mode": rd.flutter_mode, "outside_band": rd.outside_band},
         "train_seconds": seconds, "warnings": list(rom.warnings),
