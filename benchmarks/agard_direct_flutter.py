@@ -25,7 +25,8 @@ import argparse
 import json
 import math
 import time
-from dataclasses import replace
+from dataclasses import asdict, dataclass, replace
+from dataclasses import fields as dataclass_fields
 from pathlib import Path
 from typing import Any
 
@@ -66,24 +67,50 @@ def grid_spec(scale: float, axes: str = "xyz", span_cluster: float = GridSpec.sp
     return GridSpec(span_cluster=span_cluster).scaled(scale, axes)
 
 
+@dataclass(frozen=True)
+class Case:
+    """What every variant of a run shares besides its grid scale, axes and step: the wing and the solver's options."""
+
+    span_cluster: float = GridSpec.span_cluster  # 0: uniform spanwise cells
+    flat: bool = False  # the planform without its thickness
+    coefficients: str = "ames"
+    sweep_deg: float | None = None  # leading-edge sweep instead of the wing's (its modes recomputed)
+    steady_tol: float = TsdSolver.steady_tol  # the mean flow's convergence (max dphi/dt, 1/t*)
+    grid: tuple[tuple[str, float], ...] = ()  # GridSpec fields set before the scaling, e.g. (("y_outboard", 5.0),)
+    sponge_rate: float = TsdSolver.sponge_rate  # the absorbing layer's rate at its outer edge (1/t*)
+    cross_upwind: bool = True  # False: the sweep's metric terms central everywhere (the scheme until 2026-12-05)
+
+    def tag(self) -> str:
+        """The part of a cached table's name that names this case (empty for the defaults)."""
+        return (("" if self.span_cluster == GridSpec.span_cluster else f"-sc{self.span_cluster:g}")
+                + ("-flat" if self.flat else "") + ("" if self.coefficients == "ames" else f"-{self.coefficients}")
+                + ("" if self.sweep_deg is None else f"-sw{self.sweep_deg:g}")
+                + ("" if self.steady_tol == TsdSolver.steady_tol else f"-tol{self.steady_tol:g}")
+                + "".join(f"-{name}{value:g}" for name, value in self.grid)
+                + ("" if self.sponge_rate == TsdSolver.sponge_rate else f"-sponge{self.sponge_rate:g}")
+                + ("" if self.cross_upwind else "-central"))
+
+    def spec(self) -> GridSpec:
+        """The unscaled grid of this case."""
+        spec = GridSpec(span_cluster=self.span_cluster)
+        fields = {f.name: f.type for f in dataclass_fields(GridSpec)}
+        return replace(spec, **{name: int(v) if fields[name] in (int, "int") else float(v) for name, v in self.grid})
+
+
 def _table(wing: tuple[Any, Any, Any], mach: float, scale: float, dt: float, hold: float, out: str | None,
-           axes: str = "xyz",
-           span_cluster: float = GridSpec.span_cluster, flat: bool = False, coefficients: str = "ames",
-           sweep_deg: float | None = None) -> tuple[np.ndarray, float, dict[str, Any]]:
+           axes: str = "xyz", case: Case = Case()) -> tuple[np.ndarray, float, dict[str, Any]]:
     """(transfer matrix [nk, 4, 4] of the modes' step records, seconds, mean-flow summary) of ``wing`` (``_wing``'s
-    triple, of the same ``sweep_deg``) on one grid and step (``flat``: the planform without thickness)."""
-    tag = (f"g{scale:g}" + ("" if set(axes) == set("xyz") else axes)
-           + ("" if span_cluster == GridSpec.span_cluster else f"-sc{span_cluster:g}") + ("-flat" if flat else "")
-           + ("" if coefficients == "ames" else f"-{coefficients}")
-           + ("" if sweep_deg is None else f"-sw{sweep_deg:g}"))
+    triple, of the same ``case.sweep_deg``) on one grid and step."""
+    tag = f"g{scale:g}" + ("" if set(axes) == set("xyz") else axes) + case.tag()
     path = None if out is None else Path(out) / f"agard-M{mach:g}-{tag}-dt{dt:g}-h{hold:g}.npz"
     if path is not None and path.exists():
         kept = np.load(path)
         if np.array_equal(kept["k"], K_TABLE):
             return kept["gaf"], float(kept["seconds"]), json.loads(str(kept["mean_flow"]))
     definition, mesh, modal = wing
-    section = {} if flat else section_options(definition)
-    solver = TsdSolver(**section, grid=grid_spec(scale, axes, span_cluster), dt=dt, coefficients=coefficients)
+    section = {} if case.flat else section_options(definition)
+    solver = TsdSolver(**section, grid=case.spec().scaled(scale, axes), dt=dt, coefficients=case.coefficients,
+                       steady_tol=case.steady_tol, sponge_rate=case.sponge_rate, cross_upwind=case.cross_upwind)
     t0 = time.perf_counter()
     gaf = step_anchors(solver, mesh, modal.shapes, mach, K_TABLE, DT_STAR, hold=hold)  # the records on threads
     seconds = time.perf_counter() - t0
@@ -119,19 +146,16 @@ def table_change(ref: np.ndarray, table: np.ndarray, k: float) -> float:
 
 
 def run(mach: float, scales: list[float], dts: list[float], hold: float, out: str | None,
-        axes: list[str] | None = None, span_cluster: float = GridSpec.span_cluster, flat: bool = False,
-        coefficients: str = "ames", sweep_deg: float | None = None) -> dict[str, Any]:
+        axes: list[str] | None = None, case: Case = Case()) -> dict[str, Any]:
     """Step records of the 4 modes on each (grid scale, dt) pair, p-k on each transfer table and on the DLM's."""
     t0 = time.perf_counter()
-    wing = _wing(sweep_deg)
+    wing = _wing(case.sweep_deg)
     _, mesh, modal = wing
-    res: dict[str, Any] = {"mach": mach, "hold": hold, "span_cluster": span_cluster, "flat": flat,
-                           "coefficients": coefficients, "sweep_deg": sweep_deg,
-                           "v_exp": AGARD_EXPERIMENT[mach][1], "variants": []}
+    res: dict[str, Any] = {"mach": mach, "hold": hold, **asdict(case), "v_exp": AGARD_EXPERIMENT[mach][1],
+                           "variants": []}
     tables = []
     for s, d, ax in zip(scales, dts, axes or ["xyz"] * len(scales), strict=True):
-        table, seconds, mean_flow = _table(wing, mach, s, d, hold, out, ax, span_cluster, flat, coefficients,
-                                           sweep_deg)
+        table, seconds, mean_flow = _table(wing, mach, s, d, hold, out, ax, case)
         tables.append(table)
         res["variants"].append({"grid_scale": s, "axes": ax, "tsd_dt": d, "seconds": round(seconds, 1),
                                 "mean_flow": mean_flow,
@@ -164,6 +188,14 @@ def main() -> None:
                     help="the TSD coefficient set (2d: no cross-flow terms G, H)")
     ap.add_argument("--sweep", type=float, default=None,
                     help="leading-edge sweep (deg) instead of the wing's; its modes recomputed (not the tunnel's wing)")
+    ap.add_argument("--steady-tol", type=float, default=TsdSolver.steady_tol,
+                    help="the mean flow's convergence: max dphi/dt (1/t*) at which the steady march stops")
+    ap.add_argument("--grid", nargs="+", default=[], metavar="FIELD=VALUE",
+                    help="GridSpec fields of every variant before its scaling, e.g. y_outboard=5 n_outboard=20")
+    ap.add_argument("--sponge-rate", type=float, default=TsdSolver.sponge_rate,
+                    help="damping rate (1/t*) at the outer edge of the absorbing layer (0: none)")
+    ap.add_argument("--central-cross", action="store_true",
+                    help="the sweep's metric terms central at supersonic points too (the scheme until 2026-12-05)")
     ap.add_argument("--hold", type=float, default=STEP_HOLD, help="step hold (t*)")
     ap.add_argument("--out", default=None, help="keep (and reuse) each mode's transfer column here")
     a = ap.parse_args()
@@ -171,8 +203,13 @@ def main() -> None:
         ap.error("--grid-scale, --dt (and --axes) need one value each per variant")
     if a.axes is not None and any(not ax or set(ax) - set("xyz") for ax in a.axes):
         ap.error("--axes: each a combination of x, y and z")
-    print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, a.span_cluster, a.flat,
-                                     a.coefficients, a.sweep), indent=1))
+    known = {f.name for f in dataclass_fields(GridSpec)}
+    pairs = [g.split("=", 1) for g in a.grid]
+    if any(len(p) != 2 or p[0] not in known for p in pairs):
+        ap.error(f"--grid: FIELD=VALUE pairs, FIELD one of {sorted(known)}")
+    case = Case(a.span_cluster, a.flat, a.coefficients, a.sweep, a.steady_tol,
+                tuple((name, float(value)) for name, value in pairs), a.sponge_rate, not a.central_cross)
+    print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, case), indent=1))
 
 
 if __name__ == "__main__":

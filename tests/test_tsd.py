@@ -389,3 +389,68 @@ def test_steady_budget_is_pseudo_time_whatever_the_step():
     assert TsdSolver().steady_budget(0.02) == 2500
     assert TsdSolver(dt=0.01).steady_budget(0.01) == 5000
     assert TsdSolver(steady_steps=100).steady_budget(0.005) == 400
+
+
+def _swept_flow(cross_upwind: bool, phi_of_xi) -> tuple:
+    """A small swept 3-D TsdFlow at M 0.96 whose phi is phi_of_xi(xi) * (1 + 0.3 y) on every plane and level."""
+    from romams_core.aero.tsd.flow import TsdFlow
+
+    spec = GridSpec(n_chord=12, n_upstream=4, n_downstream=5, n_span=5, n_outboard=3, n_z=6, dz0=0.05)
+    g = wing_grid(1.364, 0.659, math.tan(math.radians(46.7)), spec)
+    f = TsdFlow(g, tsd_coefficients(0.96), cross_upwind=cross_upwind)
+    f.phi[...] = phi_of_xi(g.xc)[:, None, None] * (1.0 + 0.3 * g.yc)[None, :, None]
+    for lev in f.levels:
+        lev[...] = f.phi
+    return g, f
+
+
+def _residual(g, f) -> np.ndarray:
+    from romams_core.aero.tsd import kernels
+
+    out = np.zeros(g.shape)
+    p1, p2, p3 = f.levels
+    kernels.residual(f.phi, p1, p2, p3, f._tc(2, 0.02), f._co, g.xc, g.xf, g.yc, g.yf, g.zc, g.zf, f._cj, f._cyf,
+                     f._xiy_xf, f._xiy_yf, f._wing, f._wake, f.w_up, f.w_lo, f.gamma, g.k0, g.lateral_far,
+                     g.root_code, f._c_root, f._far_u, f._far_w, f.sponge, out)
+    return out
+
+
+def test_span_flux_metric_term_is_upwind_only_at_supersonic_points():
+    """The spanwise flux c (phi_y + H phi_x phi_y), phi_y = phi_eta + xi_y phi_xi (sheared frame): its phi_xi is the
+    central difference over i - 1, i + 1 where u = phi_xi / c is below the sonic u*, and the backward one over
+    i - 1, i above it (with ``cross_upwind``); central everywhere without. Checked against the formula in numpy."""
+    from romams_core.aero.tsd import kernels
+
+    coef = tsd_coefficients(0.96)
+    ramp = 2.0 * coef.u_star  # u = phi_xi crosses u* at xi = 0.5 (phi = u* xi^2): subsonic ahead, supersonic aft
+    for upwind in (True, False):
+        g, f = _swept_flow(upwind, lambda x: ramp * 0.5 * np.clip(x, -1.0, 2.0) ** 2)
+        out = np.zeros((g.shape[0], g.shape[2]))
+        fface = 1
+        kernels._span_flux(f.phi, g.xc, g.yc, f._xiy_yf, f._cyf, coef.H, coef.u_star, upwind, fface, out)
+        phi, xc, c = f.phi, g.xc, f._cyf[fface]
+        lo, hi = np.maximum(np.arange(xc.size) - 1, 0), np.minimum(np.arange(xc.size) + 1, xc.size - 1)
+        pair = phi[:, fface, :] + phi[:, fface + 1, :]
+        central = 0.5 * (pair[hi] - pair[lo]) / (xc[hi] - xc[lo])[:, None]
+        backward = 0.5 * (pair - pair[lo]) / np.where(lo < np.arange(xc.size), xc - xc[lo], 1.0)[:, None]
+        supersonic = (central > coef.u_star * c) & (np.arange(xc.size) >= 1)[:, None] & upwind
+        pxi = np.where(supersonic, backward, central)
+        py = (phi[:, fface + 1, :] - phi[:, fface, :]) / (g.yc[fface + 1] - g.yc[fface]) + f._xiy_yf[:, fface,
+                                                                                                      None] * pxi
+        assert np.allclose(out, c * (py + coef.H * (pxi / c) * py), rtol=1e-12, atol=1e-15)
+        assert supersonic.any() == upwind and (~supersonic).any()
+
+
+def test_cross_upwind_changes_nothing_where_the_flow_is_subsonic():
+    """With u below u* everywhere the residual is the same with and without ``cross_upwind`` (the linear limit and
+    subcritical mean flows keep their results); with a supersonic region it differs there."""
+    u_star = tsd_coefficients(0.96).u_star
+    for scale, differs in ((0.3, False), (3.0, True)):
+        fields = [_swept_flow(up, lambda x, s=scale: s * u_star * 0.5 * np.clip(x, -1.0, 2.0) ** 2 / 2.0)
+                  for up in (True, False)]
+        r_up, r_c = (_residual(g, f) for g, f in fields)
+        assert np.all(np.isfinite(r_up))
+        if differs:
+            assert np.abs(r_up - r_c).max() > 1e-6 * np.abs(r_c).max()
+        else:
+            assert np.array_equal(r_up, r_c)

@@ -123,6 +123,9 @@ class TsdFlow:
     gamma: np.ndarray = field(init=False)  # [ni, nj] potential jump on the wake sheet
     t: float = 0.0
     sponge_rate: float = 1.0  # damping rate (1/t*) at the outer edge of the absorbing layer; 0: none
+    #: the sheared frame's metric terms upwind in xi where the flow is supersonic (kernels: ``_span_flux``); False:
+    #: central everywhere, the scheme until 2026-12-05, which does not converge with the span's cells at M 0.96
+    cross_upwind: bool = True
     _hist: JumpHistory = field(init=False)  # empty until a run starts
 
     def __post_init__(self) -> None:
@@ -135,7 +138,7 @@ class TsdFlow:
         self.gamma = np.zeros((ni, nj))
         self._hist = JumpHistory(nj)
         self._co = np.array([self.coef.A, self.coef.B, self.coef.E, self.coef.F, self.coef.G, self.coef.H,
-                             self.coef.u_star])
+                             self.coef.u_star, 1.0 if self.cross_upwind else 0.0])
         self._cj = g.chord(g.yc)
         self._cyf = g.chord(g.yf[1:-1]) if nj > 1 else np.ones(1)
         self._c_root = float(g.chord(np.array(0.0)))  # chord at the root face (the antisymmetric root's flux)

@@ -66,17 +66,23 @@ def _eta_plane(phi, yc, root, j, out):  # pragma: no cover - compiled
 
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
-def _span_flux(phi, xc, yc, xiy_yf, cyf, H, f, out):  # pragma: no cover - compiled
-    """out[i, k] = the spanwise flux through the face between planes f and f + 1."""
+def _span_flux(phi, xc, yc, xiy_yf, cyf, H, us, upwind, f, out):  # pragma: no cover - compiled
+    """out[i, k] = the spanwise flux through the face between planes f and f + 1.
+
+    ``upwind``: the metric term's phi_xi is backward (nodes i - 1, i) where the face's u = phi_xi / c exceeds the
+    sonic ``us``, central (i - 1, i + 1) elsewhere."""
     ni, nj, nk = phi.shape
     dy = yc[f + 1] - yc[f]
     for i in range(ni):
         lo = max(i - 1, 0)
         hi = min(i + 1, ni - 1)
         inv = 1.0 / (xc[hi] - xc[lo])
+        inv_b = 1.0 / (xc[i] - xc[lo]) if i >= 1 else 0.0
         xy = xiy_yf[i, f]
         for k in range(nk):
             pxi = 0.5 * ((phi[hi, f, k] - phi[lo, f, k]) * inv + (phi[hi, f + 1, k] - phi[lo, f + 1, k]) * inv)
+            if upwind and i >= 1 and pxi > us * cyf[f]:
+                pxi = 0.5 * ((phi[i, f, k] - phi[lo, f, k]) * inv_b + (phi[i, f + 1, k] - phi[lo, f + 1, k]) * inv_b)
             py = (phi[i, f + 1, k] - phi[i, f, k]) / dy + xy * pxi
             out[i, k] = cyf[f] * (py + H * (pxi / cyf[f]) * py)
 
@@ -97,6 +103,7 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
     a0, a1, a2, a3, b0, b1, b2, dt = tc[0], tc[1], tc[2], tc[3], tc[4], tc[5], tc[6], tc[7]
     ku, kd, kz, ky = tc[8], tc[9], tc[10], tc[11]
     A, B, E, F, G, H, us = co[0], co[1], co[2], co[3], co[4], co[5], co[6]
+    upwind = co[7] > 0.0
     gus = _g(us, E, F)
     three_d = nj > 1
     gp = np.empty((ni + 1, nk))
@@ -114,7 +121,7 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
         if three_d:
             _eta_plane(phi, yc, root, j, pe)
             if j < nj - 1:
-                _span_flux(phi, xc, yc, xiy_yf, cyf, H, j, f_hi)
+                _span_flux(phi, xc, yc, xiy_yf, cyf, H, us, upwind, j, f_hi)
         # streamwise fluxes on faces 0..ni (face f is left of node f); outer faces from the far-field condition
         for f in range(1, ni):
             dxf = xc[f] - xc[f - 1]
@@ -125,7 +132,8 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
                 gp[f, k] = _g(min(u, us), E, F)
                 gm[f, k] = _g(max(u, us), E, F) - gus
                 if three_d:
-                    py = 0.5 * (pe[f - 1, k] + pe[f, k]) + xy * phxi
+                    pe_f = pe[f - 1, k] if upwind and u > us else 0.5 * (pe[f - 1, k] + pe[f, k])
+                    py = pe_f + xy * phxi
                     xx[f, k] = G * py * py + c * xy * (py + H * u * py)
         for k in range(nk):
             pt0 = (b0 * phi[0, j, k] + b1 * p1[0, j, k] + b2 * p2[0, j, k]) / dt

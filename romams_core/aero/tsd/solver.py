@@ -193,6 +193,7 @@ class TsdSolver:
     symmetry: str = "symmetric"  # of the root plane: symmetric, antisymmetric or none (a free wing)
     te_cells_per_step: float = TE_CELLS_PER_STEP  # the step cap in trailing-edge cells (``time_step``)
     max_step_halvings: int = MAX_STEP_HALVINGS  # retries of a diverged run, each at half the step
+    cross_upwind: bool = True  # the sweep's metric terms upwind at supersonic points (``TsdFlow.cross_upwind``)
     last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
     step_halvings: int = field(default=0, init=False)  # halvings this solver needed so far (kept for later runs)
 
@@ -310,7 +311,8 @@ class TsdSolver:
 
     def _mean_flow(self, grid: TsdGrid, mach: float, progress: ProgressFn | None, share: float) -> TsdFlow:
         """One steady march at the current step (``mean_flow``); Diverged when its field became non-finite."""
-        flow = TsdFlow(grid, tsd_coefficients(mach, self.coefficients), sponge_rate=self.sponge_rate)
+        flow = TsdFlow(grid, tsd_coefficients(mach, self.coefficients), sponge_rate=self.sponge_rate,
+                       cross_upwind=self.cross_upwind)
         slope = self._thickness_slope(grid)[:, None]
         flow.w_up[...] = np.where(grid.wing, slope, 0.0)
         flow.w_lo[...] = np.where(grid.wing, -slope, 0.0)
