@@ -40,6 +40,7 @@ from romams_core.aero.tsd import TsdSolver
 from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS
 from romams_core.aero.tsd.grid import GridSpec
 from romams_core.anchors import STEP_HOLD, step_anchors
+from romams_core.errors import InputError
 from romams_core.mesh import standard_mesh
 from romams_core.pk import AeroTable, pk_flutter
 from romams_core.structure.modal import modal_analysis
@@ -59,12 +60,6 @@ def _wing(sweep_deg: float | None = None) -> tuple[Any, Any, Any]:
         wing = replace(wing, planform=replace(wing.planform, sweep_le=math.radians(sweep_deg)))
     mesh = standard_mesh(wing.planform)
     return wing, mesh, modal_analysis(wing, None, 4, mesh)
-
-
-def grid_spec(scale: float, axes: str = "xyz", span_cluster: float = GridSpec.span_cluster) -> GridSpec:
-    """The default TSD grid with the cell counts along ``axes`` (any of x, y, z) times ``scale`` (z: dz0 / scale)
-    and the span's cells clustered by ``span_cluster`` (0: uniform)."""
-    return GridSpec(span_cluster=span_cluster).scaled(scale, axes)
 
 
 @dataclass(frozen=True)
@@ -126,12 +121,23 @@ def _table(wing: tuple[Any, Any, Any], mach: float, scale: float, dt: float, hol
 
 
 def flutter_point(table: np.ndarray, k: np.ndarray, omega: np.ndarray, c_ref: float, mach: float) -> dict[str, Any]:
-    """Matched-Mach p-k point of the transfer table [nk, 4, 4] at the experimental density of ``mach``."""
+    """Matched-Mach p-k point of the transfer table [nk, 4, 4] at the experimental density of ``mach``.
+
+    Where a branch of the density sweep leaves the table's k range (a mode's frequency doubling at a density far
+    from the flutter point's, seen once on a grid x 1.5), the sweep is repeated with the table's last value held to
+    k = 3 (``table_held`` True in the result); the flutter point (k near 0.08) is inside the table either way."""
     rho, v_exp, _ = AGARD_EXPERIMENT[mach]
-    p = pk_flutter(omega, AeroTable(k, table), c_ref, mach, sweep="constant-speed", rho_ref=rho,
-                   a_ref=v_exp / mach)
+    kw: dict[str, Any] = {"sweep": "constant-speed", "rho_ref": rho, "a_ref": v_exp / mach}
+    try:
+        p, held = pk_flutter(omega, AeroTable(k, table), c_ref, mach, **kw), False
+    except InputError as exc:
+        if exc.field != "k":
+            raise
+        beyond = np.linspace(k[-1], 3.0, 201)[1:]
+        wide = AeroTable(np.concatenate([k, beyond]), np.concatenate([table, np.repeat(table[-1:], beyond.size, 0)]))
+        p, held = pk_flutter(omega, wide, c_ref, mach, **kw), True
     return {**matched_mach_values(p.q_flutter_pa, mach), "omega_f": p.omega_flutter_rad_s, "k_f": p.k_flutter,
-            "mode": p.flutter_mode}
+            "mode": p.flutter_mode, "table_held": held}
 
 
 #: reduced frequencies at which each variant's transfer matrix is compared with the first variant's
