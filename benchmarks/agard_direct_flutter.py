@@ -71,7 +71,7 @@ class Case:
     coefficients: str = "ames"
     sweep_deg: float | None = None  # leading-edge sweep instead of the wing's (its modes recomputed)
     steady_tol: float = TsdSolver.steady_tol  # the mean flow's convergence (max dphi/dt, 1/t*)
-    grid: tuple[tuple[str, float], ...] = ()  # GridSpec fields set before the scaling, e.g. (("y_outboard", 5.0),)
+    grid: tuple[tuple[str, int | float], ...] = ()  # GridSpec fields set before the scaling: (("n_outboard", 20),)
     sponge_rate: float = TsdSolver.sponge_rate  # the absorbing layer's rate at its outer edge (1/t*)
     cross_upwind: bool = True  # False: the sweep's metric terms central everywhere (the scheme until 2026-12-05)
 
@@ -86,10 +86,8 @@ class Case:
                 + ("" if self.cross_upwind else "-central"))
 
     def spec(self) -> GridSpec:
-        """The unscaled grid of this case."""
-        spec = GridSpec(span_cluster=self.span_cluster)
-        fields = {f.name: f.type for f in dataclass_fields(GridSpec)}
-        return replace(spec, **{name: int(v) if fields[name] in (int, "int") else float(v) for name, v in self.grid})
+        """The unscaled grid of this case (GridSpec checks the fields: a cell count must be an int)."""
+        return replace(GridSpec(span_cluster=self.span_cluster), **dict(self.grid))
 
 
 def _table(wing: tuple[Any, Any, Any], mach: float, scale: float, dt: float, hold: float, out: str | None,
@@ -214,7 +212,8 @@ def main() -> None:
     if any(len(p) != 2 or p[0] not in known for p in pairs):
         ap.error(f"--grid: FIELD=VALUE pairs, FIELD one of {sorted(known)}")
     case = Case(a.span_cluster, a.flat, a.coefficients, a.sweep, a.steady_tol,
-                tuple((name, float(value)) for name, value in pairs), a.sponge_rate, not a.central_cross)
+                tuple((name, int(v) if v.lstrip("-").isdigit() else float(v)) for name, v in pairs), a.sponge_rate,
+                not a.central_cross)
     print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, case), indent=1))
 
 

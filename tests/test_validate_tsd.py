@@ -81,7 +81,7 @@ def test_direct_study_grids_and_table_change() -> None:
     z = Case().spec().scaled(1.5, "z")
     assert z.n_z == 33 and z.dz0 == pytest.approx(base.dz0 / 1.5) and z.n_span == base.n_span
     assert Case().spec().scaled(1.25) == tsd_grid_spec(1.25) and Case().tag() == ""
-    wide = Case(span_cluster=0.0, grid=(("y_outboard", 5.0), ("n_outboard", 20.0)), cross_upwind=False)
+    wide = Case(span_cluster=0.0, grid=(("y_outboard", 5.0), ("n_outboard", 20)), cross_upwind=False)
     spec = wide.spec().scaled(2.0, "y")
     assert (spec.span_cluster, spec.y_outboard, spec.n_outboard, spec.n_span) == (0.0, 5.0, 40, 36)
     assert isinstance(spec.n_outboard, int) and wide.tag() == "-sc0-y_outboard5-n_outboard20-central"
