@@ -405,13 +405,8 @@ def _swept_flow(cross_upwind: bool, phi_of_xi) -> tuple:
 
 
 def _residual(g, f) -> np.ndarray:
-    from romams_core.aero.tsd import kernels
-
     out = np.zeros(g.shape)
-    p1, p2, p3 = f.levels
-    kernels.residual(f.phi, p1, p2, p3, f._tc(2, 0.02), f._co, g.xc, g.xf, g.yc, g.yf, g.zc, g.zf, f._cj, f._cyf,
-                     f._xiy_xf, f._xiy_yf, f._wing, f._wake, f.w_up, f.w_lo, f.gamma, g.k0, g.lateral_far,
-                     g.root_code, f._c_root, f._far_u, f._far_w, f.sponge, out)
+    f.residual(f._tc(2, 0.02), out=out)
     return out
 
 

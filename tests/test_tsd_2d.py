@@ -120,10 +120,7 @@ def _jacobians(grid, coef_name, amp, seed=0):
 
     def rhs(phi):
         out = np.zeros(g.shape)
-        p1, p2, p3 = f.levels
-        kernels.residual(phi, p1, p2, p3, tc, f._co, g.xc, g.xf, g.yc, g.yf, g.zc, g.zf, f._cj, f._cyf, f._xiy_xf,
-                         f._xiy_yf, f._wing, f._wake, f.w_up, f.w_lo, f.gamma, g.k0, g.lateral_far, g.root_code,
-                         f._c_root, f._far_u, f._far_w, f.sponge, out)
+        f.residual(tc, phi, out)
         return out.ravel()
 
     n = g.n_points

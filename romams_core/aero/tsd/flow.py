@@ -225,22 +225,31 @@ class TsdFlow:
         a, b = TIME_SCHEMES[order]
         return np.array([*a, *b, dt, *self._kappa])
 
+    def residual(self, tc: np.ndarray, phi: np.ndarray | None = None, out: np.ndarray | None = None
+                 ) -> tuple[float, float]:
+        """Fill ``out`` (default the step's right-hand side) with s N(phi) (default the current phi) about the time
+        levels held; returns (max|N|, rms N) (kernels.residual)."""
+        g = self.grid
+        p1, p2, p3 = self.levels
+        nmax, nrms = kernels.residual(self.phi if phi is None else phi, p1, p2, p3, tc, self._co, g.xc, g.xf, g.yc,
+                                      g.yf, g.zc, g.zf, self._cj, self._cyf, self._xiy_xf, self._xiy_yf, self._wing,
+                                      self._wake, self.w_up, self.w_lo, self.gamma, g.k0, g.lateral_far,
+                                      g.root_code, self._c_root, self._far_u, self._far_w, self.sponge,
+                                      self._rhs if out is None else out)
+        return float(nmax), float(nrms)
+
     def newton_iteration(self, tc: np.ndarray) -> tuple[float, float, float]:
         """One residual evaluation and factored solve at the new time level; returns (max|N|, rms N, max|dphi|)."""
         g = self.grid
         self._update_gamma()
-        p1, p2, p3 = self.levels
-        nmax, nrms = kernels.residual(self.phi, p1, p2, p3, tc, self._co, g.xc, g.xf, g.yc, g.yf, g.zc, g.zf,
-                                      self._cj, self._cyf, self._xiy_xf, self._xiy_yf, self._wing, self._wake,
-                                      self.w_up, self.w_lo, self.gamma, g.k0, g.lateral_far, g.root_code,
-                                      self._c_root, self._far_u, self._far_w, self.sponge, self._rhs)
+        nmax, nrms = self.residual(tc)
         w = self._rhs
         kernels.solve_xi(self.phi, w, tc, self._co, g.xc, g.xf, self._cj, self._xiy_xf, self.sponge)
         kernels.solve_eta(self.phi, w, tc, self._co, g.xc, g.yc, g.yf, self._cj, self._cyf, g.lateral_far,
                           g.root_code, self._c_root)
         kernels.solve_zeta(w, tc, self._co, g.zc, g.zf, self._wing, g.k0)
         self.phi += w
-        return float(nmax), float(nrms), float(np.max(np.abs(w)))
+        return nmax, nrms, float(np.max(np.abs(w)))
 
     def _shift(self) -> None:
         """Make room for a new time level: phi becomes level n (the oldest level's array is reused for it)."""
