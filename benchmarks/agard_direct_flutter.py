@@ -38,6 +38,7 @@ from romams.services.training import section_options
 from romams_core.aero.dlm import frequency_response
 from romams_core.aero.tsd import TsdSolver
 from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS
+from romams_core.aero.tsd.flow import FAR_FIELDS
 from romams_core.aero.tsd.grid import GridSpec
 from romams_core.anchors import STEP_HOLD, step_anchors
 from romams_core.errors import InputError
@@ -74,6 +75,7 @@ class Case:
     grid: tuple[tuple[str, int | float], ...] = ()  # GridSpec fields set before the scaling: (("n_outboard", 20),)
     sponge_rate: float = TsdSolver.sponge_rate  # the absorbing layer's rate at its outer edge (1/t*)
     cross_upwind: bool = True  # False: the sweep's metric terms central everywhere (the scheme until 2026-12-05)
+    far_field: str = TsdSolver.far_field  # the outer faces (TsdFlow.far_field): "wake" or "plain" (slip walls)
 
     def tag(self) -> str:
         """The part of a cached table's name that names this case (empty for the defaults)."""
@@ -83,7 +85,8 @@ class Case:
                 + ("" if self.steady_tol == TsdSolver.steady_tol else f"-tol{self.steady_tol:g}")
                 + "".join(f"-{name}{value:g}" for name, value in self.grid)
                 + ("" if self.sponge_rate == TsdSolver.sponge_rate else f"-sponge{self.sponge_rate:g}")
-                + ("" if self.cross_upwind else "-central"))
+                + ("" if self.cross_upwind else "-central")
+                + ("" if self.far_field == TsdSolver.far_field else f"-ff{self.far_field}"))
 
     def spec(self) -> GridSpec:
         """The unscaled grid of this case (GridSpec checks the fields: a cell count must be an int)."""
@@ -103,7 +106,8 @@ def _table(wing: tuple[Any, Any, Any], mach: float, scale: float, dt: float, hol
     definition, mesh, modal = wing
     section = {} if case.flat else section_options(definition)
     solver = TsdSolver(**section, grid=case.spec().scaled(scale, axes), dt=dt, coefficients=case.coefficients,
-                       steady_tol=case.steady_tol, sponge_rate=case.sponge_rate, cross_upwind=case.cross_upwind)
+                       steady_tol=case.steady_tol, sponge_rate=case.sponge_rate, cross_upwind=case.cross_upwind,
+                       far_field=case.far_field)
     t0 = time.perf_counter()
     gaf = step_anchors(solver, mesh, modal.shapes, mach, K_TABLE, DT_STAR, hold=hold)  # the records on threads
     seconds = time.perf_counter() - t0
@@ -200,6 +204,8 @@ def main() -> None:
                     help="damping rate (1/t*) at the outer edge of the absorbing layer (0: none)")
     ap.add_argument("--central-cross", action="store_true",
                     help="the sweep's metric terms central at supersonic points too (the scheme until 2026-12-05)")
+    ap.add_argument("--far-field", choices=FAR_FIELDS, default=TsdSolver.far_field,
+                    help="the outer faces: the wake's steady potential on them, or plain (slip walls in steady flow)")
     ap.add_argument("--hold", type=float, default=STEP_HOLD, help="step hold (t*)")
     ap.add_argument("--out", default=None, help="keep (and reuse) each mode's transfer column here")
     a = ap.parse_args()
@@ -213,7 +219,7 @@ def main() -> None:
         ap.error(f"--grid: FIELD=VALUE pairs, FIELD one of {sorted(known)}")
     case = Case(a.span_cluster, a.flat, a.coefficients, a.sweep, a.steady_tol,
                 tuple((name, int(v) if v.lstrip("-").isdigit() else float(v)) for name, v in pairs), a.sponge_rate,
-                not a.central_cross)
+                not a.central_cross, a.far_field)
     print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, case), indent=1))
 
 

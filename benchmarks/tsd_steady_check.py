@@ -7,7 +7,7 @@ the box size (first order), so the zero-box value is 4 D_4 - 3 D_3 (Richardson),
 order. The columns are marched side by side (``simulate_records``).
 
     python -m benchmarks.tsd_steady_check [--wing agard-445.6] [--mach 0.7] [--columns 0 1 2 3]
-        [--hold 40] [--n-chord N] [--n-span N] [--grid KEY=VALUE ...] [--dlm-refine 2 3 4]
+        [--hold 40] [--n-chord N] [--n-span N] [--grid KEY=VALUE ...] [--dlm-refine 2 3 4] [--far-field plain]
 
 ``--grid`` sets any other field of the TSD grid (``romams_core.aero.tsd.grid.GridSpec``), e.g.
 ``--grid n_z=33 dz0=0.0133`` (normal direction) or ``--grid z_max=16 n_z=26`` (far field).
@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from romams_core.aero.dlm import DlmSolver
+from romams_core.aero.tsd.flow import FAR_FIELDS, TsdFlow
 from romams_core.errors import InputError
 from romams_core.mesh import standard_mesh
 from romams_core.structure.modal import modal_analysis
@@ -80,11 +81,14 @@ def main() -> None:
     ap.add_argument("--n-span", type=int, default=None)
     ap.add_argument("--grid", nargs="+", default=[], metavar="KEY=VALUE", help="other GridSpec fields")
     ap.add_argument("--dlm-refine", type=int, nargs="+", default=[2, 3, 4])
+    ap.add_argument("--far-field", choices=FAR_FIELDS, default=TsdFlow.far_field,
+                    help="the TSD's outer faces (TsdFlow.far_field)")
     a = ap.parse_args()
     wing = template(a.wing)
     mesh = standard_mesh(wing.planform)
     shapes = modal_analysis(wing, None, 4, mesh).shapes
     solver = make_tsd_solver()  # flat: the linear limit
+    solver.far_field = a.far_field
     mods = {k: v for k, v in (("n_chord", a.n_chord), ("n_span", a.n_span)) if v is not None}
     mods.update(grid_overrides(ap, solver.grid, a.grid))
     try:
@@ -97,7 +101,8 @@ def main() -> None:
     extrap = (r_hi * dlm[r_hi] - r_lo * dlm[r_lo]) / (r_hi - r_lo)  # first order in the box size 1 / r
     cols = a.columns
     print(json.dumps({
-        "wing": a.wing, "mach": a.mach, "grid": mods or "default", "columns": cols, "hold": a.hold,
+        "wing": a.wing, "mach": a.mach, "grid": mods or "default", "far_field": a.far_field,
+        "columns": cols, "hold": a.hold,
         "tsd_drift_last_quarter": drift, "tsd": tsd.real.tolist(),
         "dlm": {str(r): dlm[r][cols].tolist() for r in a.dlm_refine},
         "dlm_zero_box": extrap[cols].tolist(),

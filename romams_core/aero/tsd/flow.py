@@ -14,12 +14,23 @@ import numpy as np
 
 from romams_core.aero.tsd import kernels
 from romams_core.aero.tsd.coefficients import TsdCoefficients
+from romams_core.aero.tsd.far_field import WakeFarField
 from romams_core.aero.tsd.grid import TsdGrid
+from romams_core.errors import InputError
 
 #: backward-difference coefficients (phi_tt: a0..a3, phi_t: b0..b2) of the first- and second-order schemes
 TIME_SCHEMES = {1: ((1.0, -2.0, 1.0, 0.0), (1.0, -1.0, 0.0)), 2: ((2.0, -5.0, 4.0, -1.0), (1.5, -2.0, 0.5))}
+#: the outer-face conditions of a 3-D grid (``TsdFlow.far_field``)
+FAR_FIELDS = ("plain", "wake")
 #: cap of the upstream non-reflecting coefficient M / (1 - M), singular at M = 1
 UPSTREAM_KAPPA_CAP = 20.0
+
+
+def check_far_field(value: str) -> str:
+    """``value`` if it names an outer-face condition of FAR_FIELDS, else InputError naming far_field."""
+    if value not in FAR_FIELDS:
+        raise InputError("far_field", f"must be one of {FAR_FIELDS}, got {value!r}")
+    return value
 
 
 def sponge_layer(grid: TsdGrid, rate: float, fraction: float = 0.5) -> np.ndarray:
@@ -126,6 +137,10 @@ class TsdFlow:
     #: the sheared frame's metric terms upwind in xi where the flow is supersonic (kernels: ``_span_flux``); False:
     #: central everywhere, the scheme until 2026-12-05, which does not converge with the span's cells at M 0.96
     cross_upwind: bool = True
+    #: the outer faces of a 3-D grid: "wake" (the non-reflecting conditions plus the steady potential of the current
+    #: circulation, ``far_field.WakeFarField``; the default since 2026-12-05) or "plain" (the non-reflecting
+    #: conditions alone: slip walls in steady flow, whose images added 2-3 % to the steady GAF of AGARD 445.6)
+    far_field: str = "wake"
     _hist: JumpHistory = field(init=False)  # empty until a run starts
 
     def __post_init__(self) -> None:
@@ -158,6 +173,10 @@ class TsdFlow:
         self._rhs = np.zeros(g.shape)
         self._far_u = np.zeros((2, nj, nk))
         self._far_w = np.zeros((2, ni, nj))
+        self._far_v = np.zeros((2, ni, nk))
+        check_far_field(self.far_field)
+        self._wake_far = (WakeFarField.of(g, self._beta()) if self.far_field == "wake" and g.lateral_far
+                          else None)
         #: 2-D only: the outer faces see the compressible vortex of the current circulation (steady far field)
         self.vortex_far_field = not g.lateral_far and nj == 1
         self.sponge = sponge_layer(g, self.sponge_rate) if self.sponge_rate > 0 else np.zeros(g.shape)
@@ -171,6 +190,10 @@ class TsdFlow:
         lower = phi[i, :, k0] - self.w_lo[i] * zc[k0]
         return np.where(self.grid.strips, upper - lower, 0.0)
 
+    def _beta(self) -> float:
+        """The far field's Prandtl-Glauert factor sqrt(E) (E = 1 - M^2 in every coefficient set)."""
+        return math.sqrt(max(self.coef.E, 1e-6))
+
     def _vortex_far_field(self, circulation: float) -> None:
         """Far-field phi_x / phi_z on the outer faces of a 2-D grid from the compressible vortex at x = c/4.
 
@@ -178,7 +201,7 @@ class TsdFlow:
         circulation across the wake (z = 0, x > 1/4), so the outer boundaries need not be far for a lifting airfoil.
         """
         g = self.grid
-        beta = math.sqrt(max(self.coef.E, 1e-6))
+        beta = self._beta()
         k_ = circulation / (2.0 * math.pi)
 
         def grads(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -196,6 +219,8 @@ class TsdFlow:
         gte = self.gamma_te()
         if self.vortex_far_field:
             self._vortex_far_field(float(gte[0]))
+        if self._wake_far is not None:
+            self._wake_far.update(gte, self._far_u, self._far_w, self._far_v)
         if self._hist.empty:
             self.gamma = np.where(self._wake, gte[None, :], 0.0)
             return
@@ -234,7 +259,7 @@ class TsdFlow:
         nmax, nrms = kernels.residual(self.phi if phi is None else phi, p1, p2, p3, tc, self._co, g.xc, g.xf, g.yc,
                                       g.yf, g.zc, g.zf, self._cj, self._cyf, self._xiy_xf, self._xiy_yf, self._wing,
                                       self._wake, self.w_up, self.w_lo, self.gamma, g.k0, g.lateral_far,
-                                      g.root_code, self._c_root, self._far_u, self._far_w, self.sponge,
+                                      g.root_code, self._c_root, self._far_u, self._far_w, self._far_v, self.sponge,
                                       self._rhs if out is None else out)
         return float(nmax), float(nrms)
 

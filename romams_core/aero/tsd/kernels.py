@@ -89,13 +89,14 @@ def _span_flux(phi, xc, yc, xiy_yf, cyf, H, us, upwind, f, out):  # pragma: no c
 
 @nb.njit(cache=True, nogil=True, error_model="numpy")
 def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, xiy_yf,
-             wing, wake, wup, wlo, gam, k0, lateral_far, root, c_root, far_u, far_w, sponge,
+             wing, wake, wup, wlo, gam, k0, lateral_far, root, c_root, far_u, far_w, far_v, sponge,
              rhs):  # pragma: no cover - compiled
     """Fill ``rhs`` (the factored-step right-hand side s N) and return (max |N|, rms N) over all nodes.
 
     ``root``: the root face's condition (module docstring); ``c_root``: the chord there (c_ref units).
     ``far_u`` [2, nj, nk] and ``far_w`` [2, ni, nj]: prescribed far-field phi_x on the upstream/downstream faces
-    and phi_z on the bottom/top faces, added to the non-reflecting conditions (a 2-D vortex far field; zero in 3-D).
+    and phi_z on the bottom/top faces, ``far_v`` [2, ni, nk] phi_y below a free wing's root and on the lateral face,
+    added to the non-reflecting conditions (the 2-D vortex or the 3-D wake far field, ``far_field``; else zero).
     ``sponge`` [ni, nj, nk]: damping rate sigma (1/t*) of the absorbing layer, N -= A c sigma phi_t (zero inside).
     Each plane j is swept with k innermost (contiguous); the spanwise flux of a face is computed once.
     """
@@ -160,7 +161,7 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
                         fr = f_hi[i, k]
                     elif lateral_far:
                         pt = (b0 * phi[i, j, k] + b1 * p1[i, j, k] + b2 * p2[i, j, k]) / dt
-                        fr = -c * ky * pt
+                        fr = c * (far_v[1, i, k] - ky * pt)
                     else:
                         fr = 0.0
                     fl = 0.0
@@ -170,7 +171,7 @@ def residual(phi, p1, p2, p3, tc, co, xc, xf, yc, yf, zc, zf, cj, cyf, xiy_xf, x
                         fl = c_root * (phi[i, 0, k] + phi[i, 0, k]) / (yc[0] + yc[0])
                     elif root == 2:  # free wing: lateral far field below the root, phi_y = +kappa_y phi_t
                         pt = (b0 * phi[i, j, k] + b1 * p1[i, j, k] + b2 * p2[i, j, k]) / dt
-                        fl = c * ky * pt
+                        fl = c * (far_v[0, i, k] + ky * pt)
                     rhs[i, j, k] += (fr - fl) / dyj
             f_lo, f_hi = f_hi, f_lo
         # normal fluxes (face f below node f), the slit condition on the planform and the jump in the wake

@@ -32,7 +32,7 @@ from romams_core.aero.protocol import (
     image_sign,
 )
 from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS, tsd_coefficients
-from romams_core.aero.tsd.flow import SteadyResult, TsdFlow
+from romams_core.aero.tsd.flow import SteadyResult, TsdFlow, check_far_field
 from romams_core.aero.tsd.grid import ROOT_OF_SYMMETRY, GridSpec, TsdGrid, wing_grid
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
@@ -194,6 +194,7 @@ class TsdSolver:
     te_cells_per_step: float = TE_CELLS_PER_STEP  # the step cap in trailing-edge cells (``time_step``)
     max_step_halvings: int = MAX_STEP_HALVINGS  # retries of a diverged run, each at half the step
     cross_upwind: bool = True  # the sweep's metric terms upwind at supersonic points (``TsdFlow.cross_upwind``)
+    far_field: str = "wake"  # the 3-D outer faces (``TsdFlow.far_field``): "wake" or "plain" (slip walls)
     last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
     step_halvings: int = field(default=0, init=False)  # halvings this solver needed so far (kept for later runs)
 
@@ -205,6 +206,7 @@ class TsdSolver:
         if not (math.isfinite(self.dt) and 0.0 < self.dt <= 0.2):
             raise InputError("dt", f"must be in (0, 0.2] (t* units), got {self.dt!r}")
         image_sign(self.symmetry)  # InputError naming symmetry
+        check_far_field(self.far_field)
         if not (isinstance(self.max_step_halvings, int) and 0 <= self.max_step_halvings <= 6):
             raise InputError("max_step_halvings", f"must be an integer in [0, 6], got {self.max_step_halvings!r}")
 
@@ -312,7 +314,7 @@ class TsdSolver:
     def _mean_flow(self, grid: TsdGrid, mach: float, progress: ProgressFn | None, share: float) -> TsdFlow:
         """One steady march at the current step (``mean_flow``); Diverged when its field became non-finite."""
         flow = TsdFlow(grid, tsd_coefficients(mach, self.coefficients), sponge_rate=self.sponge_rate,
-                       cross_upwind=self.cross_upwind)
+                       cross_upwind=self.cross_upwind, far_field=self.far_field)
         slope = self._thickness_slope(grid)[:, None]
         flow.w_up[...] = np.where(grid.wing, slope, 0.0)
         flow.w_lo[...] = np.where(grid.wing, -slope, 0.0)
