@@ -125,22 +125,25 @@ class WakeFarField:
     """Gradient matrices of the outer faces (per unit jump of each plane): far_u, far_w and far_v of the
     residual are these times the current trailing-edge jumps."""
 
-    ku: np.ndarray  # [2 nj nk, nj] phi_x on the upstream / downstream faces
-    kw: np.ndarray  # [2 ni nj, nj] phi_z on the bottom / top faces
-    kv: np.ndarray  # [2 ni nk, nj] phi_y below the root (a free wing; zero otherwise) and on the lateral face
+    planes: np.ndarray  # [n] the planes on the span (the only ones with a jump)
+    ku: np.ndarray  # [2 nj nk, n] phi_x on the upstream / downstream faces
+    kw: np.ndarray  # [2 ni nj, n] phi_z on the bottom / top faces
+    kv: np.ndarray  # [2 ni nk, n] phi_y below the root (a free wing; zero otherwise) and on the lateral face
 
     @classmethod
     def of(cls, grid: TsdGrid, beta: float) -> WakeFarField:
         """The matrices of a 3-D grid (``lateral_far``) at the Prandtl-Glauert factor ``beta``."""
         pts = _face_points(grid)
-        kv = sheet_gradient(grid, pts["v"].reshape(-1, 3), 1, beta)
+        planes = np.flatnonzero(grid.strips)
+        kv = sheet_gradient(grid, pts["v"].reshape(-1, 3), 1, beta)[:, planes]
         if grid.root != "open":  # the root face is a (anti)symmetry plane, not a far field
             kv[: kv.shape[0] // 2] = 0.0
-        return cls(ku=sheet_gradient(grid, pts["u"].reshape(-1, 3), 0, beta),
-                   kw=sheet_gradient(grid, pts["w"].reshape(-1, 3), 2, beta), kv=kv)
+        return cls(planes=planes, ku=sheet_gradient(grid, pts["u"].reshape(-1, 3), 0, beta)[:, planes],
+                   kw=sheet_gradient(grid, pts["w"].reshape(-1, 3), 2, beta)[:, planes], kv=kv)
 
     def update(self, jumps: np.ndarray, far_u: np.ndarray, far_w: np.ndarray, far_v: np.ndarray) -> None:
         """Fill the residual's far-field gradients (phi_x etc. in U) in place from the planes' jumps [nj]."""
-        far_u.reshape(-1)[...] = self.ku @ jumps
-        far_w.reshape(-1)[...] = self.kw @ jumps
-        far_v.reshape(-1)[...] = self.kv @ jumps
+        g = jumps[self.planes]
+        far_u.reshape(-1)[...] = self.ku @ g
+        far_w.reshape(-1)[...] = self.kw @ g
+        far_v.reshape(-1)[...] = self.kv @ g
