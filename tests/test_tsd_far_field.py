@@ -101,3 +101,26 @@ def test_far_field_is_checked() -> None:
         TsdSolver(far_field="walls")
     with pytest.raises(InputError, match="far_field"):
         TsdFlow(wing_grid(*AGARD, GridSpec()), tsd_coefficients(0.5), far_field="")
+
+
+@pytest.mark.parametrize("root", ["symmetric", "open"])
+def test_compressed_face_gradients_are_the_sheets(root: str) -> None:
+    """The flow's far-field arrays (truncated SVD factors) equal the sheet's gradients at the face points: phi_x at
+    the upstream and downstream faces' nodes, phi_z at the bottom and top faces, phi_y at the lateral face (and, for
+    a free wing, the face below the root; zero on a symmetry plane)."""
+    g = wing_grid(*AGARD, GridSpec(), root=root)
+    ni, nj, nk = g.shape
+    jumps = np.random.default_rng(4).normal(size=nj) * g.strips
+    far_u, far_w, far_v = np.zeros((2, nj, nk)), np.zeros((2, ni, nj)), np.zeros((2, ni, nk))
+    ff.WakeFarField.of(g, BETA).update(jumps, far_u, far_w, far_v)
+    j, k, i = nj - 3, nk - 2, ni // 2
+    xle, c = g.x_le(g.yc[j]), g.chord(g.yc[j])
+    want_u = ff.sheet_gradient(g, np.array([[xle + c * g.xf[-1], g.yc[j], g.zc[k]]]), 0, BETA) @ jumps
+    want_w = ff.sheet_gradient(g, np.array([[xle + c * g.xc[i], g.yc[j], g.zf[0]]]), 2, BETA) @ jumps
+    y = g.yf[-1]
+    want_v = ff.sheet_gradient(g, np.array([[g.x_le(y) + g.chord(y) * g.xc[i], y, g.zc[k]]]), 1, BETA) @ jumps
+    scale = np.abs(far_w).max()
+    assert abs(far_u[1, j, k] - want_u[0]) < 1e-7 * scale
+    assert abs(far_w[0, i, j] - want_w[0]) < 1e-7 * scale
+    assert abs(far_v[1, i, k] - want_v[0]) < 1e-7 * scale
+    assert (np.abs(far_v[0]).max() > 1e-9 * scale) == (root == "open")  # (round-off of the SVD elsewhere)
