@@ -157,7 +157,7 @@ class MeanFlow(BaseModel):
     model_config = example(mach=0.87, x_over_c=[[0.0, 0.5, 1.0]], eta=[[0.5, 0.5, 0.5]],
                            cp_upper=[[-0.2, -0.6, 0.1]], cp_lower=[[0.2, 0.1, 0.0]], cp_star=-0.2,
                            steady_steps=400, steady_converged=True, dt=0.02, steady_seconds=3.1,
-                           residual_history=[1.0, 1e-3, 1e-6])
+                           residual_history=[1.0, 1e-3, 1e-6], far_field="wake")
 
     mach: float
     x_over_c: list[Any] = Field(description="chordwise position x/c of each wing node")
@@ -168,6 +168,9 @@ class MeanFlow(BaseModel):
     steady_steps: int
     steady_converged: bool
     residual_history: list[float | None]
+    far_field: str | None = Field(default=None, description="the outer faces the TSD solved with: 'wake' (the wake's "
+                                  "steady potential on them) or 'plain' (slip walls in steady flow); absent in ROMs "
+                                  "trained before 2026-12-05, which had the plain faces")
 
 
 class JobAccepted(BaseModel):

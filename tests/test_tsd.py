@@ -209,6 +209,7 @@ def test_a_diverged_steady_march_is_repeated_with_the_step_halved():
     assert solver.step_halvings == 1 and ref_solver.step_halvings == 0
     assert solver.last_mean_flow.dt == pytest.approx(0.1, rel=1e-12)
     assert solver.last_mean_flow.to_dict()["step_halvings"] == 1
+    assert solver.last_mean_flow.to_dict()["far_field"] == "wake"  # the stored ROM says which outer faces it had
     assert np.all(np.isfinite(gac)) and np.abs(gac).max() > 0.0
     np.testing.assert_array_equal(gac, ref)
 

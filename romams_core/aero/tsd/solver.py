@@ -155,13 +155,14 @@ class MeanFlow:
     steady: SteadyResult
     dt: float = 0.02  # internal time step (t*)
     step_halvings: int = 0  # times the step was halved after a diverged run (``TsdSolver.max_step_halvings``)
+    far_field: str = "wake"  # the outer faces it was solved with (``TsdFlow.far_field``; absent before 2026-12-05)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (lists of floats)."""
         return {"mach": self.mach, "x_over_c": self.x_over_c.tolist(), "eta": self.eta.tolist(),
                 "cp_upper": self.cp_upper.tolist(), "cp_lower": self.cp_lower.tolist(), "cp_star": self.cp_star,
                 "steady_steps": self.steady.steps, "steady_converged": self.steady.converged, "dt": self.dt,
-                "step_halvings": self.step_halvings,
+                "step_halvings": self.step_halvings, "far_field": self.far_field,
                 "steady_seconds": self.steady.seconds,
                 "residual_history": self.steady.residual_history[:: max(1, self.steady.steps // 200)].tolist()}
 
@@ -335,7 +336,7 @@ class TsdSolver:
         self.last_mean_flow = MeanFlow(mach=mach, x_over_c=grid.xc[iw], eta=grid.yc[jw] / grid.semispan,
                                        cp_upper=up[np.ix_(iw, jw)], cp_lower=lo[np.ix_(iw, jw)],
                                        cp_star=flow.coef.cp_star, steady=result, dt=dt,
-                                       step_halvings=self.step_halvings)
+                                       step_halvings=self.step_halvings, far_field=self.far_field)
         return flow
 
     def simulate(self, mesh: StandardMesh, shapes: np.ndarray, signals: np.ndarray, mach: float, dt_star: float,
