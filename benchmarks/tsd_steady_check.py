@@ -87,8 +87,7 @@ def main() -> None:
     wing = template(a.wing)
     mesh = standard_mesh(wing.planform)
     shapes = modal_analysis(wing, None, 4, mesh).shapes
-    solver = make_tsd_solver()  # flat: the linear limit
-    solver.far_field = a.far_field
+    solver = replace(make_tsd_solver(), far_field=a.far_field)  # flat: the linear limit
     mods = {k: v for k, v in (("n_chord", a.n_chord), ("n_span", a.n_span)) if v is not None}
     mods.update(grid_overrides(ap, solver.grid, a.grid))
     try:

@@ -87,7 +87,8 @@ def sheet_gradient(grid: TsdGrid, points: np.ndarray, axis: int, beta: float) ->
 
 
 def sheet_potential(grid: TsdGrid, points: np.ndarray, beta: float) -> np.ndarray:
-    """[P, nj] potential (U c_ref per unit jump) at ``points`` [P, 3] of each plane's strip (tests, plots)."""
+    """[P, nj] potential (U c_ref per unit jump) at ``points`` [P, 3] of each plane's strip (the tests check
+    the gradients against it)."""
     yq, xq, wq, cols = _quadrature(grid)
     p = points[:, :, None, None]
     X = (p[:, 0] - xq) / beta
@@ -151,14 +152,9 @@ class WakeFarField:
             full["v"][: full["v"].shape[0] // 2] = 0.0
         return cls(planes=planes, factors={name: _compressed(k) for name, k in full.items()})
 
-    def gradients(self, jumps: np.ndarray) -> dict[str, np.ndarray]:
-        """The faces' gradients (U; flat, in the order of the residual's far_u, far_w, far_v) for jumps [nj]."""
-        g = jumps[self.planes]
-        return {name: np.einsum("pr,r->p", a, b @ g) for name, (a, b) in self.factors.items()}
-
     def update(self, jumps: np.ndarray, far_u: np.ndarray, far_w: np.ndarray, far_v: np.ndarray) -> None:
-        """Fill the residual's far-field gradients in place from the planes' jumps [nj]."""
-        grads = self.gradients(jumps)
-        far_u.reshape(-1)[...] = grads["u"]
-        far_w.reshape(-1)[...] = grads["w"]
-        far_v.reshape(-1)[...] = grads["v"]
+        """Fill the residual's far-field gradients (U) in place from the planes' jumps [nj] (U c_ref)."""
+        g = jumps[self.planes]
+        for name, out in (("u", far_u), ("w", far_w), ("v", far_v)):
+            a, b = self.factors[name]
+            np.einsum("pr,r->p", a, b @ g, out=out.reshape(-1))  # (the arrays are C-contiguous: reshape is a view)

@@ -155,7 +155,7 @@ class MeanFlow:
     steady: SteadyResult
     dt: float = 0.02  # internal time step (t*)
     step_halvings: int = 0  # times the step was halved after a diverged run (``TsdSolver.max_step_halvings``)
-    far_field: str = "wake"  # the outer faces it was solved with (``TsdFlow.far_field``; absent before 2026-12-05)
+    far_field: str = TsdFlow.far_field  # the outer faces it was solved with (absent in dicts before 2026-12-05)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (lists of floats)."""
@@ -195,7 +195,7 @@ class TsdSolver:
     te_cells_per_step: float = TE_CELLS_PER_STEP  # the step cap in trailing-edge cells (``time_step``)
     max_step_halvings: int = MAX_STEP_HALVINGS  # retries of a diverged run, each at half the step
     cross_upwind: bool = True  # the sweep's metric terms upwind at supersonic points (``TsdFlow.cross_upwind``)
-    far_field: str = "wake"  # the 3-D outer faces (``TsdFlow.far_field``): "wake" or "plain" (slip walls)
+    far_field: str = TsdFlow.far_field  # the 3-D outer faces (``TsdFlow.far_field``): "wake" or "plain" (slip walls)
     last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
     step_halvings: int = field(default=0, init=False)  # halvings this solver needed so far (kept for later runs)
 
