@@ -8,6 +8,11 @@ order. The columns are marched side by side (``simulate_records``).
 
     python -m benchmarks.tsd_steady_check [--wing agard-445.6] [--mach 0.7] [--columns 0 1 2 3]
         [--hold 40] [--n-chord N] [--n-span N] [--grid KEY=VALUE ...] [--dlm-refine 2 3 4] [--far-field plain]
+        [--shapes analytic]
+
+``--shapes analytic`` replaces the wing's modes by smooth polynomial shapes (pitch about the root mid-chord,
+parabolic bending, linear twist, all in c_ref units), which both solvers interpolate almost exactly: a
+difference that stays is the aerodynamics', not the shapes' interpolation.
 
 ``--grid`` sets any other field of the TSD grid (``romams_core.aero.tsd.grid.GridSpec``), e.g.
 ``--grid n_z=33 dz0=0.0133`` (normal direction) or ``--grid z_max=16 n_z=26`` (far field).
@@ -49,6 +54,13 @@ def steady_columns(solver, mesh, shapes: np.ndarray, mach: float, cols: list[int
     return diag, float(drift)
 
 
+def analytic_shapes(mesh) -> np.ndarray:  # noqa: ANN001
+    """Pitch (x - x_mid) / c_ref, bending (y / b)^2 and twist (x - x_mid) y / (b c_ref) at the mesh nodes [N, 3]."""
+    x_mid = mesh.planform.root_chord / 2.0
+    c, b = mesh.c_ref, mesh.planform.semispan
+    return np.column_stack([(mesh.x - x_mid) / c, (mesh.y / b) ** 2, (mesh.x - x_mid) * mesh.y / (b * c)])
+
+
 def dlm_sequence(mesh, shapes: np.ndarray, mach: float, refines: list[int]) -> dict[int, np.ndarray]:  # noqa: ANN001
     """Real part of the DLM's diagonal GAC at k 0.001 (m^3) per lattice refinement."""
     return {r: DlmSolver(refine=r).gaf(mesh, shapes, mach, np.array([0.001]))[0].diagonal().real
@@ -81,12 +93,15 @@ def main() -> None:
     ap.add_argument("--n-span", type=int, default=None)
     ap.add_argument("--grid", nargs="+", default=[], metavar="KEY=VALUE", help="other GridSpec fields")
     ap.add_argument("--dlm-refine", type=int, nargs="+", default=[2, 3, 4])
+    ap.add_argument("--shapes", choices=("modes", "analytic"), default="modes",
+                    help="the wing's first 4 modes, or smooth polynomial shapes (analytic_shapes)")
     ap.add_argument("--far-field", choices=FAR_FIELDS, default=TsdFlow.far_field,
                     help="the TSD's outer faces (TsdFlow.far_field)")
     a = ap.parse_args()
     wing = template(a.wing)
     mesh = standard_mesh(wing.planform)
-    shapes = modal_analysis(wing, None, 4, mesh).shapes
+    shapes = (analytic_shapes(mesh) if a.shapes == "analytic"
+              else modal_analysis(wing, None, 4, mesh).shapes)
     solver = replace(make_tsd_solver(), far_field=a.far_field)  # flat: the linear limit
     mods = {k: v for k, v in (("n_chord", a.n_chord), ("n_span", a.n_span)) if v is not None}
     mods.update(grid_overrides(ap, solver.grid, a.grid))
@@ -101,7 +116,7 @@ def main() -> None:
     cols = a.columns
     print(json.dumps({
         "wing": a.wing, "mach": a.mach, "grid": mods or "default", "far_field": a.far_field,
-        "columns": cols, "hold": a.hold,
+        "shapes": a.shapes, "columns": cols, "hold": a.hold,
         "tsd_drift_last_quarter": drift, "tsd": tsd.real.tolist(),
         "dlm": {str(r): dlm[r][cols].tolist() for r in a.dlm_refine},
         "dlm_zero_box": extrap[cols].tolist(),

@@ -210,9 +210,7 @@ def refined_mesh(mesh: StandardMesh, factor: int) -> StandardMesh:
     """The mesh with every panel split ``factor`` x ``factor`` (equal parts of each panel; m)."""
     pf = mesh.planform
     fine = dataclasses.replace(pf, n_chord=pf.n_chord * factor, n_span=pf.n_span * factor)
-    if not pf.kinks:
-        return standard_mesh(fine)
-    eta = mesh.eta
+    eta = mesh.eta  # the mesh's own rows (kinks, or rows given to standard_mesh), not the planform's default
     fine_eta = np.concatenate([eta[:-1, None] + np.diff(eta)[:, None] * (np.arange(factor) / factor)[None, :],
                                [[1.0]]], axis=None)
     return standard_mesh(fine, fine_eta)
