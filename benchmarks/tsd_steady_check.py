@@ -7,8 +7,8 @@ the box size (first order), so the zero-box value is 4 D_4 - 3 D_3 (Richardson),
 order. The columns are marched side by side (``simulate_records``).
 
     python -m benchmarks.tsd_steady_check [--wing agard-445.6] [--mach 0.7] [--columns 0 1 2 3]
-        [--hold 40] [--n-chord N] [--n-span N] [--grid KEY=VALUE ...] [--dlm-refine 2 3 4] [--far-field plain]
-        [--shapes analytic]
+        [--hold 40] [--grid-scale F] [--n-chord N] [--n-span N] [--grid KEY=VALUE ...] [--dlm-refine 2 3 4]
+        [--far-field plain] [--shapes analytic]
 
 ``--shapes analytic`` replaces the wing's modes by smooth polynomial shapes (pitch about the root mid-chord,
 parabolic bending, linear twist, all in c_ref units), which both solvers interpolate almost exactly: a
@@ -89,6 +89,7 @@ def main() -> None:
     ap.add_argument("--mach", type=float, default=0.7)
     ap.add_argument("--columns", type=int, nargs="+", default=[0, 1, 2, 3])
     ap.add_argument("--hold", type=float, default=40.0, help="hold after the ramp (t*)")
+    ap.add_argument("--grid-scale", type=float, default=1.0, help="every cell count x F (GridSpec.scaled)")
     ap.add_argument("--n-chord", type=int, default=None)
     ap.add_argument("--n-span", type=int, default=None)
     ap.add_argument("--grid", nargs="+", default=[], metavar="KEY=VALUE", help="other GridSpec fields")
@@ -103,6 +104,8 @@ def main() -> None:
     shapes = (analytic_shapes(mesh) if a.shapes == "analytic"
               else modal_analysis(wing, None, 4, mesh).shapes)
     solver = replace(make_tsd_solver(), far_field=a.far_field)  # flat: the linear limit
+    if a.grid_scale != 1.0:
+        solver.grid = solver.grid.scaled(a.grid_scale)
     mods = {k: v for k, v in (("n_chord", a.n_chord), ("n_span", a.n_span)) if v is not None}
     mods.update(grid_overrides(ap, solver.grid, a.grid))
     try:
@@ -115,7 +118,7 @@ def main() -> None:
     extrap = (r_hi * dlm[r_hi] - r_lo * dlm[r_lo]) / (r_hi - r_lo)  # first order in the box size 1 / r
     cols = a.columns
     print(json.dumps({
-        "wing": a.wing, "mach": a.mach, "grid": mods or "default", "far_field": a.far_field,
+        "wing": a.wing, "mach": a.mach, "grid_scale": a.grid_scale, "grid": mods or "default", "far_field": a.far_field,
         "shapes": a.shapes, "columns": cols, "hold": a.hold,
         "tsd_drift_last_quarter": drift, "tsd": tsd.real.tolist(),
         "dlm": {str(r): dlm[r][cols].tolist() for r in a.dlm_refine},

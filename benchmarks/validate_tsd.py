@@ -17,13 +17,15 @@ Cases (reference data in docs/aerodynamics.md section 14):
   planform without thickness, each wing's own 4 modes: the TSD ROM's GAF frequency response against the DLM's
   GAF (not its rational fit) over k = 0.05-1 on c_ref / 2, per entry and relative to the largest entry, on
   the default lattice, on the 4x refined one and extrapolated to zero box size (4 D_4 - 3 D_3), and the flutter
-  points of the TSD and DLM ROMs (constant speed V = M a at 10 km).
+  points of the TSD and DLM ROMs (constant speed V = M a at 10 km); ``--linear-wings`` and ``--linear-machs``
+  pick a part of it (e.g. one wing on a refined grid with ``--grid-scale``).
 
 ``--plot DIR`` writes DIR/agard_flutter_tsd.png (FSI and frequency ratio against Mach, TSD, DLM, experiment).
 One TSD training per point takes minutes (``--processes`` trains Mach numbers in parallel).
 
     python -m benchmarks.validate_tsd [--cases agard,cropped,study,linear] [--plot docs] [--processes 2]
         [--na NA --nb NB] [--anchor-k K ...] [--study-variants default,dt,coarse,fine,half]
+        [--linear-wings cropped-delta,agard-445.6] [--linear-machs 0.5,0.7] [--grid-scale F]
 
 ``--anchor-k`` trains every TSD ROM with the option ``anchor_k`` (direct harmonic runs of each shape at those k,
 docs/transonic.md 7.7): the study then compares grids and steps at the anchors without the ARX scatter.
@@ -227,6 +229,8 @@ def main() -> None:
     ap.add_argument("--study-variants", default="default,dt,coarse,fine",
                     help="study: comma list of default, dt (tsd_dt halved), coarse (grid x 0.625), fine (x 1.25), "
                          "half (x 2 and tsd_dt 0.01: every cell size and the step halved, 8 x the points)")
+    ap.add_argument("--linear-wings", default="cropped-delta,agard-445.6", help="comma list: the linear case's wings")
+    ap.add_argument("--linear-machs", default="0.5,0.7", help="comma list: the linear case's Mach numbers")
     ap.add_argument("--processes", type=int, default=1)
     ap.add_argument("--plot", default=None, help="directory for agard_flutter_tsd.png")
     a = ap.parse_args()
@@ -263,7 +267,7 @@ def main() -> None:
             r["change_pct"] = None if (ref is None or r.get("v_f") is None) else 100.0 * (r["v_f"] / ref - 1.0)
         out["study"] = rows
     if "linear" in cases:
-        jobs = [(w, m, base) for w in ("cropped-delta", "agard-445.6") for m in (0.5, 0.7)]
+        jobs = [(w, float(m), base) for w in a.linear_wings.split(",") for m in a.linear_machs.split(",")]
         out["linear"] = parallel_map(_linear_point, jobs, a.processes)
     out["seconds"] = time.perf_counter() - t0
     if a.plot and "agard" in out:
