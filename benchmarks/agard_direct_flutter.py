@@ -115,7 +115,7 @@ def _table(wing: tuple[Any, Any, Any], mach: float, scale: float, dt: float, hol
     summary = {} if mf is None else {"steady_steps": mf.steady.steps, "dt": mf.dt, "step_halvings": mf.step_halvings,
                                      "steady_t_star": mf.steady.steps * mf.dt,
                                      "steady_converged": mf.steady.converged, "cp_star": mf.cp_star,
-                                     "cp_min": float(min(mf.cp_upper.min(), mf.cp_lower.min()))}
+                                     "cp_min": mf.cp_min}
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         np.savez(path, k=K_TABLE, gaf=gaf, seconds=seconds, mean_flow=json.dumps(summary))

@@ -18,7 +18,7 @@ from romams_core.aero.protocol import ProgressFn, image_sign
 from romams_core.aero.tsd import TsdSolver
 from romams_core.aero.tsd.coefficients import COEFFICIENT_SETS
 from romams_core.aero.tsd.grid import GridSpec
-from romams_core.aero.tsd.solver import MIN_WING_COLUMNS_PER_SHAPE, check_thickness
+from romams_core.aero.tsd.solver import MIN_WING_COLUMNS_PER_SHAPE, MeanFlow, check_thickness
 from romams_core.anchors import STEP_HOLD, anchored, check_anchor_hold, check_anchor_k, step_anchors
 from romams_core.arx import nrmse
 from romams_core.errors import InputError
@@ -54,6 +54,23 @@ UNANCHORED_WARNING = ("not anchored: the low-k GAF (k < 0.1 on c_ref / 2) of a p
                       "identification (flutter speeds measured from 43 % low to 6 % high against the TSD's own "
                       "points, docs/transonic.md 7.10); retrain with the default anchors (anchor_k not given, "
                       "docs/transonic.md 7.11)")
+
+#: the warning a TSD ROM of a supercritical mean flow carries into every flutter result: its flutter point depends
+#: on the grid, and coarser grids give higher speeds (AGARD 445.6, M 0.96, docs/transonic.md 7.16: halving every
+#: cell lowered V_f by 4.9 %; at M 0.901, subcritical, by 0.04 %)
+SUPERCRITICAL_WARNING = ("supercritical mean flow (min surface Cp {cp_min:.3f} below the sonic Cp* {cp_star:.3f}): "
+                         "the TSD's first-order differencing of the supersonic region makes the flutter point "
+                         "grid-dependent, and coarser grids give higher flutter speeds (AGARD 445.6 at M 0.96: "
+                         "-3.1 % with grid_scale 1.5, -4.9 % with 2, docs/transonic.md 7.16); check a margin of a "
+                         "few percent with a ROM trained at grid_scale 1.5 or 2")
+
+
+def supercritical_warning(mean_flow: MeanFlow) -> str | None:
+    """``SUPERCRITICAL_WARNING`` for a mean flow whose surface Cp falls below the sonic Cp*, else None."""
+    if mean_flow.cp_min >= mean_flow.cp_star:
+        return None
+    return SUPERCRITICAL_WARNING.format(cp_min=mean_flow.cp_min, cp_star=mean_flow.cp_star)
+
 
 #: further ARX orders tried on the same records when the requested ones miss nrmse_tol (a refit costs seconds; the
 #: TSD run minutes): the cropped delta's own modes at M 0.87 missed 5 % with 8/8 on one output (5.97 %)
@@ -180,6 +197,8 @@ def train_tsd_rom(
                             "TSD's long-memory compressible response")
     if solver.last_mean_flow is not None:
         rom.mean_flow = solver.last_mean_flow.to_dict()
+        if (supercritical := supercritical_warning(solver.last_mean_flow)) is not None:
+            rom.warnings.append(supercritical)
         if not solver.last_mean_flow.steady.converged:
             steady = solver.last_mean_flow.steady
             rom.warnings.append(f"TSD mean flow not converged to dphi/dt < {solver.steady_tol:g} in "

@@ -450,3 +450,24 @@ def test_cross_upwind_changes_nothing_where_the_flow_is_subsonic():
             assert np.abs(r_up - r_c).max() > 1e-6 * np.abs(r_c).max()
         else:
             assert np.array_equal(r_up, r_c)
+
+
+def test_supercritical_mean_flow_warns_in_the_rom():
+    """A 4 % thick AGARD-like wing: at M 0.96 the surface Cp falls below the sonic Cp* (-0.071) and the trained ROM
+    carries the supercritical warning (its flutter point depends on the grid, docs/transonic.md 7.16); at M 0.7 the
+    mean flow stays subcritical and says nothing."""
+    from romams_core.training_tsd import supercritical_warning, train_tsd_rom
+
+    mesh = standard_mesh(AGARD_LIKE)
+    spec = GridSpec(n_chord=16, n_upstream=6, n_downstream=8, n_span=6, n_outboard=4, n_z=10, dz0=0.04)
+    solver = TsdSolver(thickness_form="naca65a004", thickness_to_chord=0.04, grid=spec, steady_steps=300)
+    solver.mean_flow(mesh, 0.7)
+    sub = solver.last_mean_flow
+    assert sub is not None and sub.cp_min > sub.cp_star and supercritical_warning(sub) is None
+    shapes = np.column_stack([0.01 * (mesh.y / AGARD_LIKE.semispan) ** 2])
+    rom = train_tsd_rom(mesh, shapes, 0.96, solver, anchor_k=None, na=2, nb=2, n_steps=200, nrmse_tol=1.0)
+    mf = solver.last_mean_flow
+    assert mf is not None and mf.cp_min < mf.cp_star < 0.0
+    assert abs(mf.cp_star - tsd_coefficients(0.96).cp_star) < 1e-12
+    text = supercritical_warning(mf)
+    assert text is not None and f"{mf.cp_min:.3f}" in text and text in rom.warnings

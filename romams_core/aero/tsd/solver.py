@@ -157,6 +157,11 @@ class MeanFlow:
     step_halvings: int = 0  # times the step was halved after a diverged run (``TsdSolver.max_step_halvings``)
     far_field: str = TsdFlow.far_field  # the outer faces it was solved with (absent in dicts before 2026-12-05)
 
+    @property
+    def cp_min(self) -> float:
+        """Lowest surface Cp of either side; below ``cp_star`` the mean flow is supercritical."""
+        return float(min(self.cp_upper.min(), self.cp_lower.min()))
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (lists of floats)."""
         return {"mach": self.mach, "x_over_c": self.x_over_c.tolist(), "eta": self.eta.tolist(),
