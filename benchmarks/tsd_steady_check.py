@@ -12,7 +12,8 @@ order. The columns are marched side by side (``simulate_records``).
 
 ``--shapes analytic`` replaces the wing's modes by smooth polynomial shapes (pitch about the root mid-chord,
 parabolic bending, linear twist, all in c_ref units), which both solvers interpolate almost exactly: a
-difference that stays is the aerodynamics', not the shapes' interpolation.
+difference that stays is the aerodynamics', not the shapes' interpolation. The bending shape has no streamwise
+slope, so its steady diagonal entry is zero: compare columns 0 and 2 (``--columns 0 2``).
 
 ``--grid`` sets any other field of the TSD grid (``romams_core.aero.tsd.grid.GridSpec``), e.g.
 ``--grid n_z=33 dz0=0.0133`` (normal direction) or ``--grid z_max=16 n_z=26`` (far field).
