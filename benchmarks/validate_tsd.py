@@ -133,7 +133,8 @@ def _agard_point(args: tuple[float, str, dict[str, Any]]) -> dict[str, Any]:
     if getattr(rom, "mean_flow", None):
         mf = rom.mean_flow
         row.update(mean_flow_converged=mf["steady_converged"], mean_flow_steps=mf["steady_steps"],
-                   cp_min=float(min(min(r_) for r_ in mf["cp_upper"])), cp_star=mf["cp_star"],
+                   cp_min=float(min(np.min(mf["cp_upper"]), np.min(mf["cp_lower"]))),  # as MeanFlow.cp_min
+                   cp_star=mf["cp_star"],
                    validation_nrmse_max=float(max(rom.validation_nrmse)))
     return row
 
