@@ -3,6 +3,7 @@ fails becomes a row with the error (the other points still run)."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import benchmarks.validate_tsd as vt
@@ -89,3 +90,32 @@ def test_direct_study_grids_and_table_change() -> None:
     other = ref.copy()
     other[:, 1, 2] += 0.03j
     assert table_change(ref, other, 0.08) == pytest.approx(3.0)
+
+
+def test_linear_direct_extrapolation_and_worst_entry() -> None:
+    from benchmarks import tsd_linear_direct as tld
+
+    rng = np.random.default_rng(3)
+    exact = rng.normal(size=(tld.LINEAR_K.size, 4, 4)) + 1j * rng.normal(size=(tld.LINEAR_K.size, 4, 4))
+    c = rng.normal(size=exact.shape)
+    coarse, fine = exact + c * 1.0 ** 1.5, exact + c * (1.0 / 1.5) ** 1.5  # error ~ h^1.5, cells x 1.5
+    np.testing.assert_allclose(tld.richardson(coarse, fine, 1.5, 1.5), exact, rtol=0, atol=1e-12)
+    ref = np.tile(np.diag([10.0, 8.0, 6.0, 4.0]) + 0.01, (tld.LINEAR_K.size, 1, 1)).astype(complex)
+    ref[:, 1, 2] = 2.0  # a large off-diagonal entry (a fifth of the largest)
+    h = ref.copy()
+    h[7, 1, 2] *= 1.12  # 12 % off at the eighth k
+    h[:, 0, 3] = 0.5  # a small entry (below a tenth of the largest) far off: not counted as large
+    s = tld.summary(h, ref)
+    assert s["large_entries"]["magnitude_pct"] == pytest.approx(12.0, abs=1e-9)
+    assert s["diagonal"]["magnitude_pct"] == pytest.approx(0.0, abs=1e-12)
+    assert s["worst_large_entry"] == {"row": 1, "col": 2, "k": pytest.approx(tld.LINEAR_K[7])}
+
+
+def test_linear_direct_observed_order() -> None:
+    from benchmarks import tsd_linear_direct as tld
+
+    base, c = np.ones((3, 2, 2)), np.arange(12.0).reshape(3, 2, 2) + 1.0
+    scales = [1.0, 1.5, 2.0]
+    tables = [base + c * (1.0 / s) ** 1.4 for s in scales]
+    assert tld.observed_order(tables, scales) == pytest.approx(1.4, abs=1e-8)
+    assert tld.observed_order(tables[:2], scales[:2]) is None

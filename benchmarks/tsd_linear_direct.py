@@ -1,0 +1,166 @@
+"""The linear limit without identification: the TSD's whole transfer matrix against the DLM's on refined grids
+(prints JSON).
+
+``validate_tsd --cases linear`` compares the GAF of a TSD-trained ROM with the DLM's (docs/transonic.md 7.3, 7.17):
+its numbers hold the grid's error and the ARX fit's together, and every grid costs a training. Here each grid's
+TSD transfer matrix of the wing's own 4 modes (flat: no thickness) comes straight from one step record per mode
+(``anchors.step_anchors``, the product's anchor records), at the linear-limit comparison's reduced frequencies
+(k 0.05-1 on c_ref / 2), so what changes from grid to grid is the grid's alone. Every entry, off-diagonal ones
+included, is compared with the DLM on its default lattice, refined ``r`` times, and extrapolated to zero box
+size (first order: r D_r - (r - 1) D_(r - 1), docs/transonic.md 7.17). With two grids or more the TSD tables
+are extrapolated too (Richardson with the order ``--order``, from the finest two), which says whether the
+solver's continuum limit is the DLM's entry by entry.
+
+    python -m benchmarks.tsd_linear_direct [--wing agard-445.6] [--mach 0.7] [--grid-scale 1 1.5 2]
+        [--dt 0.02 0.02 0.02] [--hold 120] [--dlm-refine 3 4] [--order 1.5] [--out DIR]
+
+``--out`` keeps each grid's table and reuses it, so an interrupted run resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.optimize import brentq
+
+from benchmarks.validate_tsd import LINEAR_K, SMALL_ENTRY, gaf_agreement
+from romams_core.aero.dlm import DlmSolver
+from romams_core.anchors import STEP_HOLD, step_anchors
+from romams_core.mesh import standard_mesh
+from romams_core.structure.modal import modal_analysis
+from romams_core.training_tsd import make_tsd_solver
+from romams_core.wing import template
+
+#: the step record's sample (t*), as the training's
+DT_STAR = 0.1
+
+
+def tsd_table(mesh: Any, shapes: np.ndarray, mach: float, scale: float, dt: float, hold: float,
+              path: Path | None) -> tuple[np.ndarray, float]:
+    """(TSD transfer matrix [nk, m, m] of the flat wing at LINEAR_K, in m^3 per unit displacement; seconds)."""
+    if path is not None and path.exists():
+        kept = np.load(path)
+        if np.array_equal(kept["k"], LINEAR_K):
+            return kept["gaf"], float(kept["seconds"])
+    solver = make_tsd_solver(grid_scale=scale, tsd_dt=dt)
+    t0 = time.perf_counter()
+    gaf = step_anchors(solver, mesh, shapes, mach, LINEAR_K, DT_STAR, hold=hold)
+    seconds = time.perf_counter() - t0
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(path, k=LINEAR_K, gaf=gaf, seconds=seconds)
+    return gaf, seconds
+
+
+def richardson(coarse: np.ndarray, fine: np.ndarray, ratio: float, order: float) -> np.ndarray:
+    """Zero-cell-size estimate from two tables whose cell sizes differ by ``ratio`` (> 1), error ~ h^order."""
+    return fine + (fine - coarse) / (ratio ** order - 1.0)
+
+
+def observed_order(tables: list[np.ndarray], scales: list[float]) -> float | None:
+    """Order p of the last three tables' convergence, error ~ h^p with h = 1 / scale, from the Frobenius norms of
+    their two differences (None where the differences do not shrink like a power of h)."""
+    if len(tables) < 3:
+        return None
+    h = 1.0 / np.asarray(scales[-3:], dtype=float)
+    e1, e2 = (float(np.linalg.norm(b - a)) for a, b in zip(tables[-3:-1], tables[-2:], strict=True))
+
+    def gap(p: float) -> float:
+        return (h[0] ** p - h[1] ** p) / (h[1] ** p - h[2] ** p) - e1 / e2
+
+    try:
+        return float(brentq(gap, 0.05, 8.0))
+    except ValueError:
+        return None
+
+
+def summary(h: np.ndarray, ref: np.ndarray) -> dict[str, Any]:
+    """``gaf_agreement`` without its per-entry arrays: the worst errors over k of the diagonal, of the entries
+    above a tenth of the largest, and relative to the largest entry; where the worst large entry's magnitude
+    error sits (row, column, k)."""
+    g = gaf_agreement(h, ref)
+    big = np.abs(ref) >= SMALL_ENTRY * np.abs(ref).max(axis=(1, 2), keepdims=True)
+    mag = np.where(big, np.abs(np.asarray(g["magnitude_pct"])), -1.0)
+    ik, row, col = np.unravel_index(int(np.argmax(mag)), mag.shape)
+    return {**{key: g[key] for key in ("diagonal", "large_entries", "max_error_of_largest_pct")},
+            "worst_large_entry": {"row": int(row), "col": int(col), "k": float(LINEAR_K[ik])}}
+
+
+def dlm_table(mesh: Any, shapes: np.ndarray, mach: float, refine: int, path: Path | None) -> np.ndarray:
+    """The DLM's GAF [nk, m, m] at LINEAR_K on its lattice refined ``refine`` times (2: the default), kept in
+    ``path`` when given."""
+    if path is not None and path.exists():
+        kept = np.load(path)
+        if np.array_equal(kept["k"], LINEAR_K):
+            return kept["gaf"]
+    gaf = DlmSolver(refine=refine).gaf(mesh, shapes, mach, LINEAR_K)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(path, k=LINEAR_K, gaf=gaf)
+    return gaf
+
+
+def run(wing_name: str, mach: float, scales: list[float], dts: list[float], hold: float, refines: list[int],
+        order: float, out: str | None) -> dict[str, Any]:
+    """Every grid's TSD table against the DLM references, and the extrapolated TSD table against them."""
+    t0 = time.perf_counter()
+    wing = template(wing_name)
+    mesh = standard_mesh(wing.planform)
+    shapes = modal_analysis(wing, None, 4, mesh).shapes
+    r_lo, r_hi = sorted(refines)[-2:]
+    d_def, d_lo, d_hi = (dlm_table(mesh, shapes, mach, r,
+                                   None if out is None else Path(out) / f"{wing_name}-M{mach:g}-dlm-r{r}.npz")
+                         for r in (DlmSolver.refine, r_lo, r_hi))
+    refs = {"dlm_default": d_def, f"dlm_refine{r_hi}": d_hi,
+            "dlm_zero_box": (r_hi * d_hi - r_lo * d_lo) / (r_hi - r_lo)}
+    res: dict[str, Any] = {"wing": wing_name, "mach": mach, "hold": hold, "k": LINEAR_K.tolist(),
+                           "dlm_refines": [r_lo, r_hi], "order": order, "grids": []}
+    tables = []
+    for s, d in zip(scales, dts, strict=True):
+        path = None if out is None else Path(out) / f"{wing_name}-M{mach:g}-g{s:g}-dt{d:g}-h{hold:g}.npz"
+        table, seconds = tsd_table(mesh, shapes, mach, s, d, hold, path)
+        tables.append(table)
+        res["grids"].append({"grid_scale": s, "tsd_dt": d, "seconds": round(seconds, 1),
+                             **{name: summary(table, ref) for name, ref in refs.items()}})
+    res["observed_order"] = observed_order(tables, scales)
+    if len(tables) >= 2:
+        ratio = scales[-1] / scales[-2]
+        extrap = richardson(tables[-2], tables[-1], ratio, order)
+        res["extrapolated"] = {"from_scales": scales[-2:], **{name: summary(extrap, ref) for name, ref in refs.items()}}
+        res["extrapolated_first_order"] = {name: summary(richardson(tables[-2], tables[-1], ratio, 1.0), ref)
+                                           for name, ref in refs.items()}
+    res["wall_s"] = round(time.perf_counter() - t0, 1)
+    return res
+
+
+def main() -> None:
+    """CLI entry point."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--wing", default="agard-445.6", choices=("agard-445.6", "cropped-delta"))
+    ap.add_argument("--mach", type=float, default=0.7)
+    ap.add_argument("--grid-scale", type=float, nargs="+", default=[1.0, 1.5, 2.0],
+                    help="every cell count x F, one per grid, coarse to fine")
+    ap.add_argument("--dt", type=float, nargs="+", default=None, help="tsd_dt of each grid (t*; default 0.02)")
+    ap.add_argument("--hold", type=float, default=STEP_HOLD, help="step hold (t*)")
+    ap.add_argument("--dlm-refine", type=int, nargs="+", default=[3, 4])
+    ap.add_argument("--order", type=float, default=1.5,
+                    help="the TSD grid's order of convergence for the extrapolation (steady entries: 1.4-1.6)")
+    ap.add_argument("--out", default=None, help="keep (and reuse) each grid's table here")
+    a = ap.parse_args()
+    dts = a.dt or [0.02] * len(a.grid_scale)
+    if len(dts) != len(a.grid_scale):
+        ap.error("--dt needs one value per --grid-scale")
+    if sorted(a.grid_scale) != a.grid_scale or len(set(a.grid_scale)) != len(a.grid_scale):
+        ap.error("--grid-scale: distinct values, coarse to fine")
+    if len(a.dlm_refine) < 2:
+        ap.error("--dlm-refine: at least two lattices (the extrapolation uses the finest two)")
+    print(json.dumps(run(a.wing, a.mach, a.grid_scale, dts, a.hold, a.dlm_refine, a.order, a.out), indent=1))
+
+
+if __name__ == "__main__":
+    main()
