@@ -11,9 +11,10 @@ order. The columns are marched side by side (``simulate_records``).
         [--far-field plain] [--shapes analytic]
 
 ``--shapes analytic`` replaces the wing's modes by smooth polynomial shapes (pitch about the root mid-chord,
-parabolic bending, linear twist, all in c_ref units), which both solvers interpolate almost exactly: a
-difference that stays is the aerodynamics', not the shapes' interpolation. The bending shape has no streamwise
-slope, so its steady diagonal entry is zero: compare columns 0 and 2 (``--columns 0 2``).
+parabolic bending, linear twist, parabolic chordwise camber, all in c_ref units). Both solvers see the same
+bilinear interpolant of them on the standard mesh (almost exact for the first three), so a difference that stays is the
+aerodynamics', not the shapes' interpolation. The bending shape has no streamwise slope, so its steady diagonal
+entry is zero: compare columns 0, 2 and 3 (``--columns 0 2 3``).
 
 ``--grid`` sets any other field of the TSD grid (``romams_core.aero.tsd.grid.GridSpec``), e.g.
 ``--grid n_z=33 dz0=0.0133`` (normal direction) or ``--grid z_max=16 n_z=26`` (far field).
@@ -56,10 +57,12 @@ def steady_columns(solver, mesh, shapes: np.ndarray, mach: float, cols: list[int
 
 
 def analytic_shapes(mesh) -> np.ndarray:  # noqa: ANN001
-    """Pitch (x - x_mid) / c_ref, bending (y / b)^2 and twist (x - x_mid) y / (b c_ref) at the mesh nodes [N, 3]."""
+    """Pitch (x - x_mid) / c_ref, bending (y / b)^2, twist (x - x_mid) y / (b c_ref) and camber
+    ((x - x_mid) / c_ref)^2 at the mesh nodes [N, 4]."""
     x_mid = mesh.planform.root_chord / 2.0
     c, b = mesh.c_ref, mesh.planform.semispan
-    return np.column_stack([(mesh.x - x_mid) / c, (mesh.y / b) ** 2, (mesh.x - x_mid) * mesh.y / (b * c)])
+    return np.column_stack([(mesh.x - x_mid) / c, (mesh.y / b) ** 2, (mesh.x - x_mid) * mesh.y / (b * c),
+                            ((mesh.x - x_mid) / c) ** 2])
 
 
 def dlm_sequence(mesh, shapes: np.ndarray, mach: float, refines: list[int]) -> dict[int, np.ndarray]:  # noqa: ANN001
