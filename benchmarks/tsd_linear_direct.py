@@ -12,7 +12,7 @@ are extrapolated too (Richardson with the order ``--order``, from the finest two
 solver's continuum limit is the DLM's entry by entry.
 
     python -m benchmarks.tsd_linear_direct [--wing agard-445.6] [--mach 0.7] [--grid-scale 1 1.5 2]
-        [--dt 0.02 0.02 0.02] [--hold 120] [--dlm-refine 3 4] [--order 1.5] [--out DIR]
+        [--dt 0.02 0.02 0.02] [--hold 120] [--dlm-refine 3 4] [--order 1.5] [--shapes analytic] [--out DIR]
 
 ``--out`` keeps each grid's table and reuses it, so an interrupted run resumes where it stopped.
 """
@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
+from benchmarks.tsd_steady_check import analytic_shapes
 from benchmarks.validate_tsd import LINEAR_K, SMALL_ENTRY, gaf_agreement
 from romams_core.aero.dlm import DlmSolver
 from romams_core.anchors import STEP_HOLD, step_anchors
@@ -106,23 +107,24 @@ def dlm_table(mesh: Any, shapes: np.ndarray, mach: float, refine: int, path: Pat
 
 
 def run(wing_name: str, mach: float, scales: list[float], dts: list[float], hold: float, refines: list[int],
-        order: float, out: str | None) -> dict[str, Any]:
+        order: float, out: str | None, shape_set: str = "modes") -> dict[str, Any]:
     """Every grid's TSD table against the DLM references, and the extrapolated TSD table against them."""
     t0 = time.perf_counter()
     wing = template(wing_name)
     mesh = standard_mesh(wing.planform)
-    shapes = modal_analysis(wing, None, 4, mesh).shapes
+    shapes = analytic_shapes(mesh) if shape_set == "analytic" else modal_analysis(wing, None, 4, mesh).shapes
+    tag = wing_name if shape_set == "modes" else f"{wing_name}-analytic"
     r_lo, r_hi = sorted(refines)[-2:]
     d_def, d_lo, d_hi = (dlm_table(mesh, shapes, mach, r,
-                                   None if out is None else Path(out) / f"{wing_name}-M{mach:g}-dlm-r{r}.npz")
+                                   None if out is None else Path(out) / f"{tag}-M{mach:g}-dlm-r{r}.npz")
                          for r in (DlmSolver.refine, r_lo, r_hi))
     refs = {"dlm_default": d_def, f"dlm_refine{r_hi}": d_hi,
             "dlm_zero_box": (r_hi * d_hi - r_lo * d_lo) / (r_hi - r_lo)}
-    res: dict[str, Any] = {"wing": wing_name, "mach": mach, "hold": hold, "k": LINEAR_K.tolist(),
+    res: dict[str, Any] = {"wing": wing_name, "shapes": shape_set, "mach": mach, "hold": hold, "k": LINEAR_K.tolist(),
                            "dlm_refines": [r_lo, r_hi], "order": order, "grids": []}
     tables = []
     for s, d in zip(scales, dts, strict=True):
-        path = None if out is None else Path(out) / f"{wing_name}-M{mach:g}-g{s:g}-dt{d:g}-h{hold:g}.npz"
+        path = None if out is None else Path(out) / f"{tag}-M{mach:g}-g{s:g}-dt{d:g}-h{hold:g}.npz"
         table, seconds = tsd_table(mesh, shapes, mach, s, d, hold, path)
         tables.append(table)
         res["grids"].append({"grid_scale": s, "tsd_dt": d, "seconds": round(seconds, 1),
@@ -150,6 +152,8 @@ def main() -> None:
     ap.add_argument("--dlm-refine", type=int, nargs="+", default=[3, 4])
     ap.add_argument("--order", type=float, default=1.5,
                     help="the TSD grid's order of convergence for the extrapolation (steady entries: 1.4-1.6)")
+    ap.add_argument("--shapes", choices=("modes", "analytic"), default="modes",
+                    help="the wing's first 4 modes, or tsd_steady_check's smooth ones (pitch, bending, twist, camber)")
     ap.add_argument("--out", default=None, help="keep (and reuse) each grid's table here")
     a = ap.parse_args()
     dts = a.dt or [0.02] * len(a.grid_scale)
@@ -159,7 +163,8 @@ def main() -> None:
         ap.error("--grid-scale: distinct values, coarse to fine")
     if len(a.dlm_refine) < 2:
         ap.error("--dlm-refine: at least two lattices (the extrapolation uses the finest two)")
-    print(json.dumps(run(a.wing, a.mach, a.grid_scale, dts, a.hold, a.dlm_refine, a.order, a.out), indent=1))
+    print(json.dumps(run(a.wing, a.mach, a.grid_scale, dts, a.hold, a.dlm_refine, a.order, a.out,
+                         a.shapes), indent=1))
 
 
 if __name__ == "__main__":
