@@ -35,24 +35,25 @@ from romams_core.wing import template
 K_TABLE = np.round(np.concatenate([np.arange(0.0, 0.5, 0.01), np.arange(0.5, 1.0 + 1e-9, 0.05)]), 9)
 
 
-def dlm_table(name: str, mesh: Any, shapes: np.ndarray, mach: float, refine: int, out: str | None) -> np.ndarray:
-    """The DLM's GAF [nk, m, m] at K_TABLE on the lattice refined ``refine`` times, kept in ``out`` if given."""
-    path = None if out is None else Path(out) / f"{name}-M{mach:g}-r{refine}.npz"
+def dlm_table(mesh: Any, shapes: np.ndarray, mach: float, refine: int, k: np.ndarray, path: Path | None) -> np.ndarray:
+    """The DLM's GAF [nk, m, m] at reduced frequencies k on the lattice refined ``refine`` times, kept in (and
+    reused from) ``path`` when given."""
     if path is not None and path.exists():
         kept = np.load(path)
-        if np.array_equal(kept["k"], K_TABLE):
+        if np.array_equal(kept["k"], k):
             return kept["gaf"]
-    gaf = DlmSolver(refine=refine).gaf(mesh, shapes, mach, K_TABLE)
+    gaf = DlmSolver(refine=refine).gaf(mesh, shapes, mach, k)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
-        np.savez(path, k=K_TABLE, gaf=gaf)
+        np.savez(path, k=k, gaf=gaf)
     return gaf
 
 
 def tables(name: str, mesh: Any, shapes: np.ndarray, mach: float, refines: list[int],
            out: str | None) -> dict[str, np.ndarray]:
     """Each lattice's table by name (``r2`` ...), and ``zero_box``, extrapolated from the finest two."""
-    t = {f"r{r}": dlm_table(name, mesh, shapes, mach, r, out) for r in refines}
+    t = {f"r{r}": dlm_table(mesh, shapes, mach, r, K_TABLE, None if out is None
+                            else Path(out) / f"{name}-M{mach:g}-r{r}.npz") for r in refines}
     lo, hi = refines[-2:]
     t["zero_box"] = (hi * t[f"r{hi}"] - lo * t[f"r{lo}"]) / (hi - lo)
     return t

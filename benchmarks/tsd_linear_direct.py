@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
+from benchmarks.dlm_lattice_flutter import dlm_table
 from benchmarks.tsd_steady_check import analytic_shapes
 from benchmarks.validate_tsd import LINEAR_K, SMALL_ENTRY, gaf_agreement
 from romams_core.aero.dlm import DlmSolver
@@ -92,20 +93,6 @@ def summary(h: np.ndarray, ref: np.ndarray) -> dict[str, Any]:
             "worst_large_entry": {"row": int(row), "col": int(col), "k": float(LINEAR_K[ik])}}
 
 
-def dlm_table(mesh: Any, shapes: np.ndarray, mach: float, refine: int, path: Path | None) -> np.ndarray:
-    """The DLM's GAF [nk, m, m] at LINEAR_K on its lattice refined ``refine`` times (2: the default), kept in
-    ``path`` when given."""
-    if path is not None and path.exists():
-        kept = np.load(path)
-        if np.array_equal(kept["k"], LINEAR_K):
-            return kept["gaf"]
-    gaf = DlmSolver(refine=refine).gaf(mesh, shapes, mach, LINEAR_K)
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        np.savez(path, k=LINEAR_K, gaf=gaf)
-    return gaf
-
-
 def run(wing_name: str, mach: float, scales: list[float], dts: list[float], hold: float, refines: list[int],
         order: float, out: str | None, shape_set: str = "modes") -> dict[str, Any]:
     """Every grid's TSD table against the DLM references, and the extrapolated TSD table against them."""
@@ -115,7 +102,7 @@ def run(wing_name: str, mach: float, scales: list[float], dts: list[float], hold
     shapes = analytic_shapes(mesh) if shape_set == "analytic" else modal_analysis(wing, None, 4, mesh).shapes
     tag = wing_name if shape_set == "modes" else f"{wing_name}-analytic"
     r_lo, r_hi = sorted(refines)[-2:]
-    d_def, d_lo, d_hi = (dlm_table(mesh, shapes, mach, r,
+    d_def, d_lo, d_hi = (dlm_table(mesh, shapes, mach, r, LINEAR_K,
                                    None if out is None else Path(out) / f"{tag}-M{mach:g}-dlm-r{r}.npz")
                          for r in (DlmSolver.refine, r_lo, r_hi))
     refs = {"dlm_default": d_def, f"dlm_refine{r_hi}": d_hi,
