@@ -49,13 +49,18 @@ def dlm_table(mesh: Any, shapes: np.ndarray, mach: float, refine: int, k: np.nda
     return gaf
 
 
+def zero_box(d_lo: np.ndarray, d_hi: np.ndarray, r_lo: int, r_hi: int) -> np.ndarray:
+    """DLM tables of lattices refined r_lo < r_hi times extrapolated to zero box size (first order in 1 / r)."""
+    return (r_hi * d_hi - r_lo * d_lo) / (r_hi - r_lo)
+
+
 def tables(name: str, mesh: Any, shapes: np.ndarray, mach: float, refines: list[int],
            out: str | None) -> dict[str, np.ndarray]:
     """Each lattice's table by name (``r2`` ...), and ``zero_box``, extrapolated from the finest two."""
     t = {f"r{r}": dlm_table(mesh, shapes, mach, r, K_TABLE, None if out is None
                             else Path(out) / f"{name}-M{mach:g}-r{r}.npz") for r in refines}
     lo, hi = refines[-2:]
-    t["zero_box"] = (hi * t[f"r{hi}"] - lo * t[f"r{lo}"]) / (hi - lo)
+    t["zero_box"] = zero_box(t[f"r{lo}"], t[f"r{hi}"], lo, hi)
     return t
 
 

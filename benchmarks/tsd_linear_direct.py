@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
-from benchmarks.dlm_lattice_flutter import dlm_table
+from benchmarks.dlm_lattice_flutter import dlm_table, zero_box
 from benchmarks.tsd_steady_check import analytic_shapes
 from benchmarks.validate_tsd import LINEAR_K, SMALL_ENTRY, gaf_agreement
 from romams_core.aero.dlm import DlmSolver
@@ -106,7 +106,7 @@ def run(wing_name: str, mach: float, scales: list[float], dts: list[float], hold
                                    None if out is None else Path(out) / f"{tag}-M{mach:g}-dlm-r{r}.npz")
                          for r in (DlmSolver.refine, r_lo, r_hi))
     refs = {"dlm_default": d_def, f"dlm_refine{r_hi}": d_hi,
-            "dlm_zero_box": (r_hi * d_hi - r_lo * d_lo) / (r_hi - r_lo)}
+            "dlm_zero_box": zero_box(d_lo, d_hi, r_lo, r_hi)}
     res: dict[str, Any] = {"wing": wing_name, "shapes": shape_set, "mach": mach, "hold": hold, "k": LINEAR_K.tolist(),
                            "dlm_refines": [r_lo, r_hi], "order": order, "grids": []}
     tables = []
