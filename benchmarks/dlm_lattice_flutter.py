@@ -25,7 +25,7 @@ import numpy as np
 
 from benchmarks.agard_direct_flutter import _wing, flutter_point
 from benchmarks.validate_dlm import AGARD_EXPERIMENT, CROPPED_DELTA, PSI
-from romams_core.aero.dlm import DlmSolver
+from romams_core.aero.dlm import DlmSolver, zero_box
 from romams_core.mesh import standard_mesh
 from romams_core.pk import AeroTable, pk_flutter
 from romams_core.structure.modal import modal_analysis
@@ -47,11 +47,6 @@ def dlm_table(mesh: Any, shapes: np.ndarray, mach: float, refine: int, k: np.nda
         path.parent.mkdir(parents=True, exist_ok=True)
         np.savez(path, k=k, gaf=gaf)
     return gaf
-
-
-def zero_box(d_lo: np.ndarray, d_hi: np.ndarray, r_lo: int, r_hi: int) -> np.ndarray:
-    """DLM tables of lattices refined r_lo < r_hi times extrapolated to zero box size (first order in 1 / r)."""
-    return (r_hi * d_hi - r_lo * d_lo) / (r_hi - r_lo)
 
 
 def tables(name: str, mesh: Any, shapes: np.ndarray, mach: float, refines: list[int],

@@ -12,9 +12,12 @@ are extrapolated too (Richardson with the order ``--order``, from the finest two
 solver's continuum limit is the DLM's entry by entry.
 
     python -m benchmarks.tsd_linear_direct [--wing agard-445.6] [--mach 0.7] [--grid-scale 1 1.5 2]
-        [--dt 0.02 0.02 0.02] [--hold 120] [--dlm-refine 3 4] [--order 1.5] [--shapes analytic] [--out DIR]
+        [--dt 0.02 0.02 0.02] [--hold 120] [--dlm-refine 3 4] [--order 1.5] [--shapes analytic]
+        [--columns 2] [--out DIR]
 
-``--out`` keeps each grid's table and reuses it, so an interrupted run resumes where it stopped.
+``--out`` keeps each grid's table and reuses it, so an interrupted run resumes where it stopped. ``--columns``
+runs only those shapes' motions (0-based; one record each instead of one per shape, so finer grids fit) and
+reports every entry of those columns, with its ratio to each DLM reference per k.
 """
 
 from __future__ import annotations
@@ -28,10 +31,10 @@ from typing import Any
 import numpy as np
 from scipy.optimize import brentq
 
-from benchmarks.dlm_lattice_flutter import dlm_table, zero_box
+from benchmarks.dlm_lattice_flutter import dlm_table
 from benchmarks.tsd_steady_check import analytic_shapes
 from benchmarks.validate_tsd import LINEAR_K, SMALL_ENTRY, gaf_agreement
-from romams_core.aero.dlm import DlmSolver
+from romams_core.aero.dlm import DlmSolver, zero_box
 from romams_core.anchors import STEP_HOLD, step_anchors
 from romams_core.mesh import standard_mesh
 from romams_core.structure.modal import modal_analysis
@@ -43,15 +46,16 @@ DT_STAR = 0.1
 
 
 def tsd_table(mesh: Any, shapes: np.ndarray, mach: float, scale: float, dt: float, hold: float,
-              path: Path | None) -> tuple[np.ndarray, float]:
-    """(TSD transfer matrix [nk, m, m] of the flat wing at LINEAR_K, in m^3 per unit displacement; seconds)."""
+              path: Path | None, columns: list[int] | None = None) -> tuple[np.ndarray, float]:
+    """(TSD transfer matrix [nk, m, m] of the flat wing at LINEAR_K, in m^3 per unit displacement, or its
+    ``columns`` [nk, m, len(columns)]; seconds)."""
     if path is not None and path.exists():
         kept = np.load(path)
         if np.array_equal(kept["k"], LINEAR_K):
             return kept["gaf"], float(kept["seconds"])
     solver = make_tsd_solver(grid_scale=scale, tsd_dt=dt)
     t0 = time.perf_counter()
-    gaf = step_anchors(solver, mesh, shapes, mach, LINEAR_K, DT_STAR, hold=hold)
+    gaf = step_anchors(solver, mesh, shapes, mach, LINEAR_K, DT_STAR, hold=hold, columns=columns)
     seconds = time.perf_counter() - t0
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -93,9 +97,21 @@ def summary(h: np.ndarray, ref: np.ndarray) -> dict[str, Any]:
             "worst_large_entry": {"row": int(row), "col": int(col), "k": float(LINEAR_K[ik])}}
 
 
+def column_summary(h: np.ndarray, ref: np.ndarray, columns: list[int]) -> dict[str, Any]:
+    """Every entry (i, j) of the tables' columns h, ref [nk, m, len(columns)] (j = columns[c], 1-based in the
+    keys): worst magnitude (%) and phase (deg) error over k, and |h / ref| per k."""
+    ratio = np.abs(h) / np.abs(ref)
+    phase = np.degrees(np.angle(h / ref))
+    return {f"({i + 1},{j + 1})": {"magnitude_pct": round(float(100.0 * np.abs(ratio[:, i, c] - 1.0).max()), 2),
+                                   "phase_deg": round(float(np.abs(phase[:, i, c]).max()), 2),
+                                   "ratio": ratio[:, i, c].round(4).tolist()}
+            for c, j in enumerate(columns) for i in range(h.shape[1])}
+
+
 def run(wing_name: str, mach: float, scales: list[float], dts: list[float], hold: float, refines: list[int],
-        order: float, out: str | None, shape_set: str = "modes") -> dict[str, Any]:
-    """Every grid's TSD table against the DLM references, and the extrapolated TSD table against them."""
+        order: float, out: str | None, shape_set: str = "modes", columns: list[int] | None = None) -> dict[str, Any]:
+    """Every grid's TSD table (or its ``columns``) against the DLM references, and the extrapolated TSD table
+    against them."""
     t0 = time.perf_counter()
     wing = template(wing_name)
     mesh = standard_mesh(wing.planform)
@@ -107,21 +123,28 @@ def run(wing_name: str, mach: float, scales: list[float], dts: list[float], hold
                          for r in (DlmSolver.refine, r_lo, r_hi))
     refs = {"dlm_default": d_def, f"dlm_refine{r_hi}": d_hi,
             "dlm_zero_box": zero_box(d_lo, d_hi, r_lo, r_hi)}
+    if columns is not None:
+        refs = {name: ref[:, :, columns] for name, ref in refs.items()}
+
+    def compare(table: np.ndarray, ref: np.ndarray) -> dict[str, Any]:
+        return summary(table, ref) if columns is None else column_summary(table, ref, columns)
+
     res: dict[str, Any] = {"wing": wing_name, "shapes": shape_set, "mach": mach, "hold": hold, "k": LINEAR_K.tolist(),
-                           "dlm_refines": [r_lo, r_hi], "order": order, "grids": []}
+                           "dlm_refines": [r_lo, r_hi], "order": order, "columns": columns, "grids": []}
     tables = []
     for s, d in zip(scales, dts, strict=True):
-        path = None if out is None else Path(out) / f"{tag}-M{mach:g}-g{s:g}-dt{d:g}-h{hold:g}.npz"
-        table, seconds = tsd_table(mesh, shapes, mach, s, d, hold, path)
+        cols = "" if columns is None else "-c" + "_".join(map(str, columns))
+        path = None if out is None else Path(out) / f"{tag}-M{mach:g}-g{s:g}-dt{d:g}-h{hold:g}{cols}.npz"
+        table, seconds = tsd_table(mesh, shapes, mach, s, d, hold, path, columns)
         tables.append(table)
         res["grids"].append({"grid_scale": s, "tsd_dt": d, "seconds": round(seconds, 1),
-                             **{name: summary(table, ref) for name, ref in refs.items()}})
+                             **{name: compare(table, ref) for name, ref in refs.items()}})
     res["observed_order"] = observed_order(tables, scales)
     if len(tables) >= 2:
         ratio = scales[-1] / scales[-2]
         extrap = richardson(tables[-2], tables[-1], ratio, order)
-        res["extrapolated"] = {"from_scales": scales[-2:], **{name: summary(extrap, ref) for name, ref in refs.items()}}
-        res["extrapolated_first_order"] = {name: summary(richardson(tables[-2], tables[-1], ratio, 1.0), ref)
+        res["extrapolated"] = {"from_scales": scales[-2:], **{name: compare(extrap, ref) for name, ref in refs.items()}}
+        res["extrapolated_first_order"] = {name: compare(richardson(tables[-2], tables[-1], ratio, 1.0), ref)
                                            for name, ref in refs.items()}
     res["wall_s"] = round(time.perf_counter() - t0, 1)
     return res
@@ -141,6 +164,8 @@ def main() -> None:
                     help="the TSD grid's order of convergence for the extrapolation (steady entries: 1.4-1.6)")
     ap.add_argument("--shapes", choices=("modes", "analytic"), default="modes",
                     help="the wing's first 4 modes, or tsd_steady_check's smooth ones (pitch, bending, twist, camber)")
+    ap.add_argument("--columns", type=int, nargs="+", default=None,
+                    help="run only these shapes' motions (0-based) and report every entry of their columns")
     ap.add_argument("--out", default=None, help="keep (and reuse) each grid's table here")
     a = ap.parse_args()
     dts = a.dt or [0.02] * len(a.grid_scale)
@@ -148,10 +173,12 @@ def main() -> None:
         ap.error("--dt needs one value per --grid-scale")
     if sorted(a.grid_scale) != a.grid_scale or len(set(a.grid_scale)) != len(a.grid_scale):
         ap.error("--grid-scale: distinct values, coarse to fine")
+    if a.columns is not None and not all(0 <= c < 4 for c in a.columns):
+        ap.error("--columns: shape indices 0-3")
     if len(a.dlm_refine) < 2:
         ap.error("--dlm-refine: at least two lattices (the extrapolation uses the finest two)")
     print(json.dumps(run(a.wing, a.mach, a.grid_scale, dts, a.hold, a.dlm_refine, a.order, a.out,
-                         a.shapes), indent=1))
+                         a.shapes, a.columns), indent=1))
 
 
 if __name__ == "__main__":

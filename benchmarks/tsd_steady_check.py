@@ -28,7 +28,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from romams_core.aero.dlm import DlmSolver
+from romams_core.aero.dlm import DlmSolver, zero_box
 from romams_core.aero.tsd.flow import FAR_FIELDS, TsdFlow
 from romams_core.errors import InputError
 from romams_core.mesh import standard_mesh
@@ -119,7 +119,7 @@ def main() -> None:
     tsd, drift = steady_columns(solver, mesh, shapes, a.mach, a.columns, a.hold)
     dlm = dlm_sequence(mesh, shapes, a.mach, a.dlm_refine)
     r_hi, r_lo = sorted(a.dlm_refine)[-1], sorted(a.dlm_refine)[-2]
-    extrap = (r_hi * dlm[r_hi] - r_lo * dlm[r_lo]) / (r_hi - r_lo)  # first order in the box size 1 / r
+    extrap = zero_box(dlm[r_lo], dlm[r_hi], r_lo, r_hi)
     cols = a.columns
     print(json.dumps({
         "wing": a.wing, "mach": a.mach, "grid_scale": a.grid_scale, "grid": mods or "default", "far_field": a.far_field,

@@ -145,15 +145,19 @@ def step_transfer(y: np.ndarray, u: np.ndarray, k: np.ndarray, dt_star: float) -
 
 def step_anchors(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndarray, mach: float, k: np.ndarray,
                  dt_star: float = 0.1, peak_fraction: float = 0.002, hold: float = STEP_HOLD,
-                 progress: ProgressFn | None = None) -> np.ndarray:
+                 progress: ProgressFn | None = None, columns: list[int] | None = None) -> np.ndarray:
     """Transfer matrix [n_k, m, m] (m^3 per unit generalized displacement) of ``solver`` at the reduced frequencies
     k (on c_ref / 2) from one step record per shape (``step_records``), side by side for a RecordsSolver. One run
-    serves every k whose response has settled within ``hold`` (k = 0 included), unlike ``harmonic_anchors``."""
+    serves every k whose response has settled within ``hold`` (k = 0 included), unlike ``harmonic_anchors``.
+    ``columns``: run only these shapes' motions (default all); the result is then [n_k, m, len(columns)]."""
     records = step_records(shapes, mesh.c_ref, hold, dt_star, peak_fraction)
-    outs = _run_records(solver, mesh, shapes, records, mach, dt_star, progress)
-    cols = [step_transfer(np.asarray(g), r[:, j], np.asarray(k, dtype=float), dt_star)
-            for j, (g, r) in enumerate(zip(outs, records, strict=True))]
-    return np.stack(cols, axis=2)  # [n_k, p, m]: column j from run j
+    moving = list(range(len(records))) if columns is None else [int(j) for j in columns]
+    if not moving or not all(0 <= j < len(records) for j in moving):
+        raise InputError("columns", f"expected shape indices in [0, {len(records)}), got {columns}")
+    outs = _run_records(solver, mesh, shapes, [records[j] for j in moving], mach, dt_star, progress)
+    cols = [step_transfer(np.asarray(g), records[j][:, j], np.asarray(k, dtype=float), dt_star)
+            for j, g in zip(moving, outs, strict=True)]
+    return np.stack(cols, axis=2)  # [n_k, p, len(moving)]: column c from the run of shape moving[c]
 
 
 def anchor_lags(k: np.ndarray) -> np.ndarray:

@@ -76,6 +76,20 @@ def test_step_anchors_give_the_transfer_matrix_at_every_low_k():
         step_records(np.eye(3), 0.5, hold=5.0)
 
 
+def test_step_anchors_of_chosen_columns_are_those_columns_of_the_whole_matrix():
+    """``columns`` runs only those shapes' records: the same columns as the whole matrix to 1e-12, in the order
+    asked; an index outside the shapes is refused naming ``columns``."""
+    ss = _system(3)
+    k = np.array([0.0, 0.05, 0.3])
+    whole = step_anchors(LtiSolver(ss), _Mesh(), np.eye(3), 0.5, k, dt_star=ss.dt_star)
+    part = step_anchors(LtiSolver(ss), _Mesh(), np.eye(3), 0.5, k, dt_star=ss.dt_star, columns=[2, 0])
+    assert part.shape == (3, ss.n_outputs, 2)
+    np.testing.assert_allclose(part, whole[:, :, [2, 0]], rtol=0.0, atol=1e-12 * np.abs(whole).max())
+    for bad in ([3], [], [-1]):
+        with pytest.raises(InputError, match="columns"):
+            step_anchors(LtiSolver(ss), _Mesh(), np.eye(3), 0.5, k, dt_star=ss.dt_star, columns=bad)
+
+
 def test_anchored_model_meets_the_anchors_and_stays_close_elsewhere():
     """A model with poles 1 % off, anchored to the true system at k 0.05 / 0.1: the anchors to 1e-10; the
     correction is bounded over k 0-1.5 by a few times the anchors' residual; stable; no-op when already met."""

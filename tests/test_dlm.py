@@ -175,7 +175,7 @@ def test_steady_lift_slope_rectangular_wings(ar, uvlm_converged):
     cl64 = _cl_alpha_dlm(_rect(ar, 8, 64))
     assert cl64.imag == 0.0
     assert cl64.real == pytest.approx(ref, rel=0.02)
-    assert (2.0 * cl64 - cl32).real == pytest.approx(uvlm_converged, rel=0.002)
+    assert float(dlm.zero_box(cl32, cl64, 1, 2).real) == pytest.approx(uvlm_converged, rel=0.002)  # span cells x 2
 
 
 def test_prandtl_glauert_similarity():

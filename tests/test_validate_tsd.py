@@ -111,6 +111,21 @@ def test_linear_direct_extrapolation_and_worst_entry() -> None:
     assert s["worst_large_entry"] == {"row": 1, "col": 2, "k": pytest.approx(tld.LINEAR_K[7])}
 
 
+def test_linear_direct_column_summary_names_every_entry_of_the_columns() -> None:
+    from benchmarks import tsd_linear_direct as tld
+
+    nk = tld.LINEAR_K.size
+    ref = np.full((nk, 4, 2), 2.0 + 1.0j)
+    h = ref.copy()
+    h[5, 3, 0] *= 0.9 * np.exp(1j * np.radians(4.0))  # entry (4, 3) 10 % low and 4 deg ahead at the sixth k
+    s = tld.column_summary(h, ref, [2, 1])
+    assert set(s) == {f"({i},{j})" for i in range(1, 5) for j in (3, 2)}
+    assert s["(4,3)"]["magnitude_pct"] == pytest.approx(10.0, abs=1e-9)
+    assert s["(4,3)"]["phase_deg"] == pytest.approx(4.0, abs=1e-9)
+    assert s["(4,3)"]["ratio"][5] == pytest.approx(0.9, abs=1e-12) and s["(4,3)"]["ratio"][4] == 1.0
+    assert s["(4,2)"]["magnitude_pct"] == 0.0 and s["(1,3)"]["phase_deg"] == 0.0
+
+
 def test_linear_direct_observed_order() -> None:
     from benchmarks import tsd_linear_direct as tld
 

@@ -304,6 +304,13 @@ def frequency_response(
     return system.gaf(np.asarray(interp @ shapes), k_values, progress)
 
 
+def zero_box(d_lo: np.ndarray, d_hi: np.ndarray, r_lo: int, r_hi: int) -> np.ndarray:
+    """GAC tables (m^3) of lattices refined r_lo < r_hi times, extrapolated to zero box size: the DLM's error
+    falls as the box size 1 / r (first order; docs/aerodynamics.md 13.4), so r_hi D_hi - r_lo D_lo over
+    r_hi - r_lo."""
+    return (r_hi * np.asarray(d_hi) - r_lo * np.asarray(d_lo)) / (r_hi - r_lo)
+
+
 @dataclass
 class DlmSolver:
     """Subsonic doublet-lattice method behind the FrequencySolver protocol (panelaero kernels, explicit mirror).
