@@ -13,11 +13,13 @@ solver's continuum limit is the DLM's entry by entry.
 
     python -m benchmarks.tsd_linear_direct [--wing agard-445.6] [--mach 0.7] [--grid-scale 1 1.5 2]
         [--dt 0.02 0.02 0.02] [--hold 120] [--dlm-refine 3 4] [--order 1.5] [--shapes analytic]
-        [--columns 2] [--out DIR]
+        [--columns 2] [--grid KEY=VALUE ...] [--out DIR]
 
 ``--out`` keeps each grid's table and reuses it, so an interrupted run resumes where it stopped. ``--columns``
 runs only those shapes' motions (0-based; one record each instead of one per shape, so finer grids fit) and
-reports every entry of those columns, with its ratio to each DLM reference per k.
+reports every entry of those columns, with its ratio to each DLM reference per k. ``--grid`` sets other fields of the
+default grid before each scaling (``GridSpec``, e.g. ``y_outboard=5 n_outboard=15``: the lateral face twice as
+far beyond the tip, the same cells near the wing), to separate the far field's part from the cells'.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -32,9 +35,10 @@ import numpy as np
 from scipy.optimize import brentq
 
 from benchmarks.dlm_lattice_flutter import dlm_table
-from benchmarks.tsd_steady_check import analytic_shapes
+from benchmarks.tsd_steady_check import analytic_shapes, grid_overrides
 from benchmarks.validate_tsd import LINEAR_K, SMALL_ENTRY, gaf_agreement
 from romams_core.aero.dlm import DlmSolver, zero_box
+from romams_core.aero.tsd.grid import GridSpec
 from romams_core.anchors import STEP_HOLD, step_anchors
 from romams_core.mesh import standard_mesh
 from romams_core.structure.modal import modal_analysis
@@ -46,14 +50,18 @@ DT_STAR = 0.1
 
 
 def tsd_table(mesh: Any, shapes: np.ndarray, mach: float, scale: float, dt: float, hold: float,
-              path: Path | None, columns: list[int] | None = None) -> tuple[np.ndarray, float]:
+              path: Path | None, columns: list[int] | None = None,
+              grid: dict[str, Any] | None = None) -> tuple[np.ndarray, float]:
     """(TSD transfer matrix [nk, m, m] of the flat wing at LINEAR_K, in m^3 per unit displacement, or its
-    ``columns`` [nk, m, len(columns)]; seconds)."""
+    ``columns`` [nk, m, len(columns)]; seconds). ``grid``: GridSpec fields of the default grid, set before the
+    scaling."""
     if path is not None and path.exists():
         kept = np.load(path)
         if np.array_equal(kept["k"], LINEAR_K):
             return kept["gaf"], float(kept["seconds"])
     solver = make_tsd_solver(grid_scale=scale, tsd_dt=dt)
+    if grid:
+        solver.grid = replace(GridSpec(), **grid).scaled(scale)
     t0 = time.perf_counter()
     gaf = step_anchors(solver, mesh, shapes, mach, LINEAR_K, DT_STAR, hold=hold, columns=columns)
     seconds = time.perf_counter() - t0
@@ -109,7 +117,8 @@ def column_summary(h: np.ndarray, ref: np.ndarray, columns: list[int]) -> dict[s
 
 
 def run(wing_name: str, mach: float, scales: list[float], dts: list[float], hold: float, refines: list[int],
-        order: float, out: str | None, shape_set: str = "modes", columns: list[int] | None = None) -> dict[str, Any]:
+        order: float, out: str | None, shape_set: str = "modes", columns: list[int] | None = None,
+        grid: dict[str, Any] | None = None) -> dict[str, Any]:
     """Every grid's TSD table (or its ``columns``) against the DLM references, and the extrapolated TSD table
     against them."""
     t0 = time.perf_counter()
@@ -130,12 +139,14 @@ def run(wing_name: str, mach: float, scales: list[float], dts: list[float], hold
         return summary(table, ref) if columns is None else column_summary(table, ref, columns)
 
     res: dict[str, Any] = {"wing": wing_name, "shapes": shape_set, "mach": mach, "hold": hold, "k": LINEAR_K.tolist(),
-                           "dlm_refines": [r_lo, r_hi], "order": order, "columns": columns, "grids": []}
+                           "dlm_refines": [r_lo, r_hi], "order": order, "columns": columns,
+                           "grid": grid or "default", "grids": []}
     tables = []
     for s, d in zip(scales, dts, strict=True):
         cols = "" if columns is None else "-c" + "_".join(map(str, columns))
+        cols += "".join(f"-{key}{value:g}" for key, value in sorted((grid or {}).items()))
         path = None if out is None else Path(out) / f"{tag}-M{mach:g}-g{s:g}-dt{d:g}-h{hold:g}{cols}.npz"
-        table, seconds = tsd_table(mesh, shapes, mach, s, d, hold, path, columns)
+        table, seconds = tsd_table(mesh, shapes, mach, s, d, hold, path, columns, grid)
         tables.append(table)
         res["grids"].append({"grid_scale": s, "tsd_dt": d, "seconds": round(seconds, 1),
                              **{name: compare(table, ref) for name, ref in refs.items()}})
@@ -166,6 +177,8 @@ def main() -> None:
                     help="the wing's first 4 modes, or tsd_steady_check's smooth ones (pitch, bending, twist, camber)")
     ap.add_argument("--columns", type=int, nargs="+", default=None,
                     help="run only these shapes' motions (0-based) and report every entry of their columns")
+    ap.add_argument("--grid", nargs="+", default=[], metavar="KEY=VALUE",
+                    help="other GridSpec fields of the default grid, set before each grid's scaling")
     ap.add_argument("--out", default=None, help="keep (and reuse) each grid's table here")
     a = ap.parse_args()
     dts = a.dt or [0.02] * len(a.grid_scale)
@@ -177,8 +190,9 @@ def main() -> None:
         ap.error("--columns: shape indices 0-3")
     if len(a.dlm_refine) < 2:
         ap.error("--dlm-refine: at least two lattices (the extrapolation uses the finest two)")
+    grid = grid_overrides(ap, make_tsd_solver().grid, a.grid)
     print(json.dumps(run(a.wing, a.mach, a.grid_scale, dts, a.hold, a.dlm_refine, a.order, a.out,
-                         a.shapes, a.columns), indent=1))
+                         a.shapes, a.columns, grid), indent=1))
 
 
 if __name__ == "__main__":
