@@ -26,12 +26,12 @@ import json
 import math
 import time
 from dataclasses import asdict, dataclass, replace
-from dataclasses import fields as dataclass_fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from benchmarks.tsd_steady_check import grid_overrides
 from benchmarks.validate_dlm import AGARD_EXPERIMENT
 from benchmarks.validate_tsd import matched_mach_values
 from romams.services.training import section_options
@@ -213,13 +213,8 @@ def main() -> None:
         ap.error("--grid-scale, --dt (and --axes) need one value each per variant")
     if a.axes is not None and any(not ax or set(ax) - set("xyz") for ax in a.axes):
         ap.error("--axes: each a combination of x, y and z")
-    known = {f.name for f in dataclass_fields(GridSpec)}
-    pairs = [g.split("=", 1) for g in a.grid]
-    if any(len(p) != 2 or p[0] not in known for p in pairs):
-        ap.error(f"--grid: FIELD=VALUE pairs, FIELD one of {sorted(known)}")
     case = Case(a.span_cluster, a.flat, a.coefficients, a.sweep, a.steady_tol,
-                tuple((name, int(v) if v.lstrip("-").isdigit() else float(v)) for name, v in pairs), a.sponge_rate,
-                not a.central_cross, a.far_field)
+                tuple(grid_overrides(ap, GridSpec(), a.grid).items()), a.sponge_rate, not a.central_cross, a.far_field)
     print(json.dumps(run(a.mach, a.grid_scale, a.dt, a.hold, a.out, a.axes, case), indent=1))
 
 
