@@ -49,6 +49,12 @@ from romams_core.wing import template
 DT_STAR = 0.1
 
 
+def grid_spec(scale: float, grid: dict[str, Any] | None = None) -> GridSpec:
+    """The default TSD grid with the fields ``grid`` set, then every cell count x ``scale`` (``GridSpec.scaled``)."""
+    spec = replace(GridSpec(), **(grid or {}))
+    return spec.scaled(scale) if scale != 1.0 else spec
+
+
 def tsd_table(mesh: Any, shapes: np.ndarray, mach: float, scale: float, dt: float, hold: float,
               path: Path | None, columns: list[int] | None = None,
               grid: dict[str, Any] | None = None) -> tuple[np.ndarray, float]:
@@ -60,8 +66,7 @@ def tsd_table(mesh: Any, shapes: np.ndarray, mach: float, scale: float, dt: floa
         if np.array_equal(kept["k"], LINEAR_K):
             return kept["gaf"], float(kept["seconds"])
     solver = make_tsd_solver(grid_scale=scale, tsd_dt=dt)
-    if grid:
-        solver.grid = replace(GridSpec(), **grid).scaled(scale)
+    solver.grid = grid_spec(scale, grid)
     t0 = time.perf_counter()
     gaf = step_anchors(solver, mesh, shapes, mach, LINEAR_K, DT_STAR, hold=hold, columns=columns)
     seconds = time.perf_counter() - t0

@@ -126,6 +126,17 @@ def test_linear_direct_column_summary_names_every_entry_of_the_columns() -> None
     assert s["(4,2)"]["magnitude_pct"] == 0.0 and s["(1,3)"]["phase_deg"] == 0.0
 
 
+def test_linear_direct_grid_fields_are_set_before_the_scaling() -> None:
+    """``--grid y_outboard=5 n_outboard=15`` on the grid x 2: 30 outboard cells (the field scaled with the rest),
+    the extent kept; no fields: the training's grid of that scale."""
+    from benchmarks import tsd_linear_direct as tld
+    from romams_core.training_tsd import tsd_grid_spec
+
+    g = tld.grid_spec(2.0, {"y_outboard": 5.0, "n_outboard": 15})
+    assert (g.n_outboard, g.y_outboard, g.n_span, g.n_z) == (30, 5.0, 36, 44)
+    assert tld.grid_spec(1.5) == tsd_grid_spec(1.5) and tld.grid_spec(1.0, {}) == tsd_grid_spec(1.0)
+
+
 def test_linear_direct_observed_order() -> None:
     from benchmarks import tsd_linear_direct as tld
 
