@@ -51,8 +51,7 @@ DT_STAR = 0.1
 
 def grid_spec(scale: float, grid: dict[str, Any] | None = None) -> GridSpec:
     """The default TSD grid with the fields ``grid`` set, then every cell count x ``scale`` (``GridSpec.scaled``)."""
-    spec = replace(GridSpec(), **(grid or {}))
-    return spec.scaled(scale) if scale != 1.0 else spec
+    return replace(GridSpec(), **(grid or {})).scaled(scale)
 
 
 def tsd_table(mesh: Any, shapes: np.ndarray, mach: float, scale: float, dt: float, hold: float,
@@ -195,7 +194,7 @@ def main() -> None:
         ap.error("--columns: shape indices 0-3")
     if len(a.dlm_refine) < 2:
         ap.error("--dlm-refine: at least two lattices (the extrapolation uses the finest two)")
-    grid = grid_overrides(ap, make_tsd_solver().grid, a.grid)
+    grid = grid_overrides(ap, GridSpec(), a.grid)
     print(json.dumps(run(a.wing, a.mach, a.grid_scale, dts, a.hold, a.dlm_refine, a.order, a.out,
                          a.shapes, a.columns, grid), indent=1))
 
