@@ -2,7 +2,8 @@
 
 Cases (method, numbers and discussion in docs/tsd_2d_validation.md):
 - ``naca0012``: NACA 0012, M 0.75, alpha 2 deg, steady, on the default 2-D grid scaled by 0.5 / 1 / 2: CL and
-  upper shock position (where Cp rises through Cp*), against the TSFOIL2 example of pyTSFoil;
+  upper shock position (where Cp rises through Cp*), against the TSFOIL2 example of pyTSFoil; ``naca0012_nlr``
+  the same with the "nlr" coefficient set, whose sonic velocity is close to the isentropic critical speed;
 - ``naca0012_reference``: the same flow from an independent steady discretization of the same equation
   (``reference_steady_tsd``: vertex-centred, Engquist-Osher, Dirichlet vortex far field, Newton with sparse LU),
   and the TSFOIL equation (Krupp similarity scaling) solved by it on TSFOIL's own mesh, which reproduces TSFOIL's
@@ -102,11 +103,17 @@ def steady_section(spec: GridSpec, mach: float, alpha_deg: float, form: str | No
             "_flow": flow}
 
 
-def naca0012_table(scales: tuple[float, ...]) -> list[dict[str, Any]]:
+def isentropic_cp_star(mach: float, gamma: float = 1.4) -> float:
+    """Exact critical pressure coefficient of isentropic flow at free-stream ``mach`` (dimensionless)."""
+    ratio = (2.0 + (gamma - 1.0) * mach ** 2) / (gamma + 1.0)
+    return 2.0 / (gamma * mach ** 2) * (ratio ** (gamma / (gamma - 1.0)) - 1.0)
+
+
+def naca0012_table(scales: tuple[float, ...], coefficients: str = "ames") -> list[dict[str, Any]]:
     """NACA 0012, M 0.75, alpha 2 deg on the base grid scaled by each factor (dt scales with the cells)."""
     rows = []
     for s in scales:
-        row = steady_section(BASE_SPEC.scaled(s), 0.75, 2.0, "naca4", 0.12, dt=0.02 / s)
+        row = steady_section(BASE_SPEC.scaled(s), 0.75, 2.0, "naca4", 0.12, dt=0.02 / s, coefficients=coefficients)
         row.pop("_flow")
         rows.append({"scale": s, **row})
     return rows
@@ -371,8 +378,9 @@ def main() -> None:
     ap.add_argument("--no-reference", action="store_true", help="skip the independent reference solver")
     ap.add_argument("--no-pitching", action="store_true", help="skip the CT6 pitching case")
     args = ap.parse_args()
-    out: dict[str, Any] = {"tsfoil": TSFOIL_N0012,
-                           "naca0012": naca0012_table((0.5, 1.0) if args.quick else (0.5, 1.0, 2.0))}
+    scales = (0.5, 1.0) if args.quick else (0.5, 1.0, 2.0)
+    out: dict[str, Any] = {"tsfoil": TSFOIL_N0012, "isentropic_cp_star": isentropic_cp_star(0.75),
+                           "naca0012": naca0012_table(scales), "naca0012_nlr": naca0012_table(scales, "nlr")}
     if not args.no_reference:
         grids = ((50, 24, 34, 0.02), (100, 30, 40, 0.01), (200, 40, 50, 0.005))
         f_krupp, s_krupp = -0.5 * 2.4 * 0.75 ** 1.75, 0.75 ** -0.25

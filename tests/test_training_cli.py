@@ -77,7 +77,9 @@ def test_train_command_rejects_bad_input(data_dir):
     assert res.exit_code == 2 and "--reduce" in res.output
     for args, hint in ((["--solver", "tsd", "--anchor-k", "0.05,2"], "options.anchor_k"),
                        (["--solver", "tsd", "--anchor-k", "low"], "--anchor-k"),
-                       (["--solver", "uvlm", "--anchor-k", "0.05"], "--anchor-k")):
+                       (["--solver", "uvlm", "--anchor-k", "0.05"], "--anchor-k"),
+                       (["--solver", "tsd", "--coefficients", "krupp"], "options.coefficients"),
+                       (["--solver", "dlm", "--coefficients", "nlr"], "--coefficients")):
         res = runner.invoke(app, ["train", "--mach", "0.9", *args])
         assert res.exit_code == 2 and hint in res.output, res.output
 

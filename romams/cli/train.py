@@ -50,6 +50,9 @@ def train_command(
                                               "standard-mesh panel edge (default 2; 1 trains about 7x faster)"),
     grid_scale: float | None = typer.Option(None, "--grid-scale", help="tsd: cell counts of the default grid "
                                             "multiplied by this (0.25-4; 0.5 is a quick run)"),
+    coefficients: str | None = typer.Option(None, "--coefficients", help="tsd: the coefficient set of the TSD "
+                                            "equation, ames (default, CAP-TSD's) or nlr (sonic speed within 3 % of "
+                                            "the isentropic one; docs/tsd_2d_validation.md 3.2a)"),
     linearity_check: bool = typer.Option(False, "--linearity-check", help="tsd: rerun at half amplitude and report "
                                          "the deviation from linear scaling"),
     anchor_k: str | None = typer.Option(None, "--anchor-k", help="tsd: the reduced frequencies at which the ROM is "
@@ -115,6 +118,8 @@ def train_command(
             options["grid_scale"] = grid_scale
         if linearity_check:
             options["linearity_check"] = True
+        if coefficients is not None:
+            options["coefficients"] = coefficients
         if anchor_k is not None and anchor_k.strip().lower() == "none":
             options["anchor_k"] = None
         elif anchor_k is not None:
@@ -123,9 +128,9 @@ def train_command(
             except ValueError:
                 raise typer.BadParameter(f"comma-separated reduced frequencies, got {anchor_k!r}",
                                          param_hint="--anchor-k") from None
-    elif grid_scale is not None or linearity_check or anchor_k is not None:
+    elif grid_scale is not None or linearity_check or anchor_k is not None or coefficients is not None:
         raise typer.BadParameter(f"applies to the transonic solver (tsd), not {solver}",
-                                 param_hint="--grid-scale/--linearity-check/--anchor-k")
+                                 param_hint="--grid-scale/--linearity-check/--anchor-k/--coefficients")
     store = open_store()
     try:
         wing_id, w = resolve_wing(store, wing)
