@@ -79,7 +79,7 @@ def main() -> None:
             "training_s": round(total, 2), "training_min": round(total / 60.0, 2), "target_min": 10.0,
             "validation_nrmse_max": float(np.max(rom.validation_nrmse)), "n_states": rom.ss.n_states,
             "anchor_k": None if rom.anchor_k is None else [float(k) for k in rom.anchor_k],
-            "anchor_band_error": rom.anchor_band_error,
+            "anchor_band_error": rom.anchor_band_error, "na": rom.na, "nb": rom.nb, "warnings": list(rom.warnings),
             # the step records of the anchors (one per shape, after the training records): the rest of the time
             "anchor_s": round(total - rom.train_seconds, 2), "plain_training_s": round(rom.train_seconds, 2),
         }

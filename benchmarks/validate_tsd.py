@@ -164,8 +164,9 @@ SMALL_ENTRY = 0.1
 
 def gaf_agreement(h: np.ndarray, ref: np.ndarray) -> dict[str, Any]:
     """Agreement of GAF tables h and ref [nk, m, m]: per-entry magnitude (%) and phase (deg) errors, split into
-    entries >= SMALL_ENTRY of the largest |ref| at that k and smaller ones, and the error relative to the
-    largest entry, max_ij |h - ref| / max_ij |ref| (%), per k."""
+    entries >= SMALL_ENTRY of the largest |ref| at that k and smaller ones, the error relative to the largest
+    entry, max_ij |h - ref| / max_ij |ref| (%), per k, and where the worst large entry's magnitude error sits
+    (k index, row, column)."""
     big = np.abs(ref) >= SMALL_ENTRY * np.abs(ref).max(axis=(1, 2), keepdims=True)
     mag = 100.0 * (np.abs(h) / np.abs(ref) - 1.0)
     ph = np.degrees(np.angle(h / ref))
@@ -176,7 +177,9 @@ def gaf_agreement(h: np.ndarray, ref: np.ndarray) -> dict[str, Any]:
             return {"magnitude_pct": None, "phase_deg": None}
         return {"magnitude_pct": float(np.abs(mag[sel]).max()), "phase_deg": float(np.abs(ph[sel]).max())}
 
+    at = np.unravel_index(int(np.argmax(np.where(big, np.abs(mag), -1.0))), mag.shape)
     return {"large_entries": worst(big), "small_entries": worst(~big), "max_error_of_largest_pct": float(rel.max()),
+            "worst_large_entry_at": [int(v) for v in at],
             "diagonal": worst(np.broadcast_to(np.eye(h.shape[1], dtype=bool), h.shape)),
             "magnitude_pct": mag.round(2).tolist(), "phase_deg": ph.round(2).tolist()}
 

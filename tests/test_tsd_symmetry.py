@@ -37,8 +37,9 @@ def test_symmetric_root_is_unchanged():
     shapes = np.column_stack([np.ones(mesh.n_nodes), mesh.y * mesh.x])
     sig = 0.002 * np.sin(np.arange(30)[:, None] * np.array([0.3, 0.5]))
 
-    def run(**kw: str) -> tuple[np.ndarray, np.ndarray]:  # the outer faces as they were then (no wake far field)
-        s = TsdSolver(thickness_form="naca4", thickness_to_chord=0.06, grid=GridSpec(n_span=6, **SMALL),
+    def run(**kw: str) -> tuple[np.ndarray, np.ndarray]:  # the outer faces as they were then (no wake far field,
+        s = TsdSolver(thickness_form="naca4", thickness_to_chord=0.06,  # the lateral face at 2.5 semispans)
+                      grid=GridSpec(n_span=6, y_outboard=2.5, **SMALL),
                       steady_steps=100, far_field="plain", **kw)
         gac = s.simulate(mesh, shapes, sig, 0.8, 0.1)
         assert s.last_mean_flow is not None
@@ -69,7 +70,7 @@ def test_free_wing_grid_continues_below_the_root():
     assert np.array_equal(g.strips, (g.yc > 0) & (g.yc < 3.0)) and g.strips.sum() == 8
     assert np.array_equal(g.wing.any(axis=0), g.strips) and np.array_equal(g.wake.any(axis=0), g.strips)
     lateral = sponge_layer(g, 1.0)[int(np.argmin(np.abs(g.xc - 0.5))), :, g.k0]  # across the span at the wing
-    assert lateral[0] > 0.1 and lateral[g.strips].max() == 0.0
+    assert lateral[0] > 0.05 and lateral[g.strips].max() == 0.0  # measured 0.091 (0.16 with the face at 2.5 spans)
     np.testing.assert_allclose(lateral, lateral[::-1], rtol=1e-12)
 
     tan, taper, kinks = 0.6, 0.5, np.array([[0.7, 0.3, 0.8]])

@@ -34,7 +34,7 @@ class GridSpec:
     n_span: int = 18  # cells on the semispan, clustered toward the tip (a free wing's toward both edges)
     span_cluster: float = 0.5  # weight of the sine clustering of the span's cells (0 uniform; 0.5: tip 2.6x finer)
     n_outboard: int = 10  # cells beyond the tip (and, for a free wing, as many below the root)
-    y_outboard: float = 2.5  # far lateral boundary, in semispans from the root (y_outboard - 1 beyond each edge)
+    y_outboard: float = 5.0  # far lateral boundary, in semispans from the root (y_outboard - 1 beyond each edge)
     n_z: int = 22  # cells on each side of the mean plane
     dz0: float = 0.02  # first cell height at the mean plane
     z_max: float = 8.0
