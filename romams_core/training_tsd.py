@@ -56,13 +56,13 @@ UNANCHORED_WARNING = ("not anchored: the low-k GAF (k < 0.1 on c_ref / 2) of a p
                       "docs/transonic.md 7.11)")
 
 #: the warning a TSD ROM of a supercritical mean flow carries into every flutter result: its flutter point depends
-#: on the grid, and coarser grids give higher speeds (AGARD 445.6, M 0.96, docs/transonic.md 7.16: halving every
-#: cell lowered V_f by 4.9 %; at M 0.901, subcritical, by 0.04 %)
+#: on the grid, and coarser grids give higher speeds (AGARD 445.6, M 0.96, docs/transonic.md 7.20: halving every
+#: cell lowered V_f by 5.7 %; at M 0.901, subcritical, by 0.06 %)
 SUPERCRITICAL_WARNING = ("supercritical mean flow (min surface Cp {cp_min:.3f} below the sonic Cp* {cp_star:.3f}): "
                          "the TSD's first-order differencing of the supersonic region makes the flutter point "
                          "grid-dependent, and coarser grids give higher flutter speeds (AGARD 445.6 at M 0.96: "
-                         "-3.1 % with grid_scale 1.5, -4.9 % with 2, docs/transonic.md 7.16); check a margin of a "
-                         "few percent with a ROM trained at grid_scale 1.5 or 2")
+                         "-5.5 % with grid_scale 1.5, -5.7 % with 2, docs/transonic.md 7.20); check a margin of "
+                         "about 6 % or train the ROM at grid_scale 1.5")
 
 
 def supercritical_warning(mean_flow: MeanFlow) -> str | None:
