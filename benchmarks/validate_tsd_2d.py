@@ -6,7 +6,8 @@ Cases (method, numbers and discussion in docs/tsd_2d_validation.md):
   the same with the "nlr" coefficient set, whose sonic velocity is close to the isentropic critical speed;
 - ``naca0012_reference``: the same flow from an independent steady discretization of the same equation
   (``reference_steady_tsd``: vertex-centred, Engquist-Osher, Dirichlet vortex far field, Newton with sparse LU),
-  and the TSFOIL equation (Krupp similarity scaling) solved by it on TSFOIL's own mesh, which reproduces TSFOIL's
+  the nlr set's equation (``nlr_equation``), and the TSFOIL equation (Krupp similarity scaling) solved by it on
+  TSFOIL's own mesh, which reproduces TSFOIL's
   CL and shows what separates TSFOIL's number from ours;
 - ``pitching_64a010``: NACA 64A010 pitching about the quarter chord (AGARD CT6 conditions: M 0.796, mean alpha 0,
   1 deg, k 0.202 on the semichord): first harmonic of lift and moment over the last of 4 cycles, with a flat plate
@@ -110,10 +111,12 @@ def isentropic_cp_star(mach: float, gamma: float = 1.4) -> float:
 
 
 def naca0012_table(scales: tuple[float, ...], coefficients: str = "ames") -> list[dict[str, Any]]:
-    """NACA 0012, M 0.75, alpha 2 deg on the base grid scaled by each factor (dt scales with the cells)."""
+    """NACA 0012, M 0.75, alpha 2 deg on the base grid scaled by each factor (dt scales with the cells; the step
+    budget too: the nlr set's 100-cell march needs 41,585 steps)."""
     rows = []
     for s in scales:
-        row = steady_section(BASE_SPEC.scaled(s), 0.75, 2.0, "naca4", 0.12, dt=0.02 / s, coefficients=coefficients)
+        row = steady_section(BASE_SPEC.scaled(s), 0.75, 2.0, "naca4", 0.12, dt=0.02 / s, coefficients=coefficients,
+                             max_steps=int(40000 * max(1.0, s)))
         row.pop("_flow")
         rows.append({"scale": s, **row})
     return rows
@@ -386,6 +389,7 @@ def main() -> None:
         f_krupp, s_krupp = -0.5 * 2.4 * 0.75 ** 1.75, 0.75 ** -0.25
         out["naca0012_reference"] = {
             "same_equation": [reference_naca0012(*gr) for gr in grids],
+            "nlr_equation": [reference_naca0012(*gr, F=tsd_coefficients(0.75, "nlr").F) for gr in grids],
             "tsfoil_equation_uniform_grids": [reference_naca0012(*gr, F=f_krupp, slope_scale=s_krupp)
                                               for gr in grids[:2]],
             "tsfoil_equation_on_tsfoil_mesh": reference_on_tsfoil_mesh(),

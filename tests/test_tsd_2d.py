@@ -46,8 +46,8 @@ def test_flat_plate_lift_matches_compressible_thin_airfoil_theory():
 def test_naca0012_transonic_agrees_with_an_independent_discretization(naca0012):
     """The AF time march converges to the same flow as the vertex-centred Newton solver of the benchmark
     (reference_steady_tsd: another discretization of the same equation, far field and Kutta condition).
-    Measured: CL 0.4497 (AF, 25 cells) and 0.4438 (reference, 50 cells), upper shock 0.436 and 0.434; with refinement
-    both approach CL 0.455, shock 0.445 (AF 100 cells: 0.4530, reference 200 cells: 0.4528)."""
+    Measured: CL 0.4494 (AF, 25 cells) and 0.4438 (reference, 50 cells), upper shock 0.436 and 0.434; with refinement
+    both approach CL 0.455, shock 0.445 (AF 100 cells: 0.4527, reference 200 cells: 0.4528)."""
     assert naca0012["converged"]
     ref = reference_naca0012()
     assert ref["residual"] < 1e-9
