@@ -34,9 +34,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from .eigen import EigData
+from . import newton_kernel as nk
+from .batch import STATS
+from .eigen import CONTENT_MIN, EigData
 from .newton import RootRequest, RootsRequest
-from .tracking import CONTENT_AWAY, G_UNSTABLE, Branches, Path, Solve, Tracker, _content_jump, _may_cross, assign
+from .sweeps import ConstantDensity, ConstantSpeed
+from .tracking import (
+    CONTENT_AWAY,
+    CONTENT_JUMP,
+    G_UNSTABLE,
+    HUMP_ERR,
+    HUMP_FLOOR,
+    Branches,
+    Path,
+    Solve,
+    Tracker,
+    _content_jump,
+    _may_cross,
+    assign,
+)
 
 PRED_TOL = 0.05  # corrector farther than this (relative to max(|s|, omega_j)) from the predictor: step rejected
 PRED_TOL_POST = 0.3  # the same after the first unstable point (the steps there only shape the V-g curves)
@@ -47,6 +63,7 @@ H_MIN = 2.0**-9  # smallest Newton step (of the natural range) before a full eig
 CHECKPOINTS = (0.25, 0.5, 1.0)  # fractions of the sweep range where the Newton state is checked by a full solve
 MATCH_TOL = 1e-6  # Newton root and full-spectrum assignment agree to this (relative)
 VEER_DROP = 0.002  # content loss in one step of a branch below content 0.5 that sends the step to the full spectrum
+SEGMENT_ROOM = 256  # accepted points one compiled segment may return before it hands back (and is called again)
 FALLBACKS = 4  # full-spectrum steps of length H_MIN in a row after which the full spectrum takes the step to the target
 
 
@@ -57,6 +74,7 @@ FULL = "full"  # a step the full spectrum must take at once (a branch of structu
 class ContinuationTracker(Tracker):
     """Branch continuation by Newton on det T(s) (module docstring); ``Tracker`` for models without it."""
 
+    compiled = True  # the diagonal path's steps by ``newton_kernel`` (False: the numpy path, its reference)
     newton_last = False  # the path's last point came from a Newton step (not yet checked by a full solve)
 
     def track_search(self, grid: np.ndarray) -> Solve[Path]:
@@ -100,6 +118,9 @@ class ContinuationTracker(Tracker):
     def _run(self, path: Path, todo: list[float], coarse: set[float], check_set: set[float],
              h: float) -> Solve[list[int]]:
         """Continue the path over the target points ``todo``; the path indices of the checkpoints reached by Newton."""
+        sweep_kind = self._kernel_sweep()
+        if sweep_kind is not None:
+            return (yield from self._run_compiled(path, todo, coarse, check_set, h, sweep_kind))
         marks = []
         for p_t in todo:
             h = yield from self._continue_to(path, p_t, h)
@@ -107,6 +128,71 @@ class ContinuationTracker(Tracker):
                 marks.append(len(path.p) - 1)
             if p_t in coarse:
                 path.coarse.append(len(path.p) - 1)
+        return marks
+
+    def _kernel_sweep(self) -> tuple[int, float] | None:
+        """(``newton_kernel`` sweep kind, its parameter) when the compiled steps apply (diagonalized aero matrix,
+        constant-speed or constant-density sweep), else None (the steps of ``_continue_to``)."""
+        sw = self.sweep
+        if not self.compiled or self.m.lam_a is None:
+            return None
+        if type(sw) is ConstantSpeed:
+            return nk.CONSTANT_SPEED, float(sw.v0)
+        if type(sw) is ConstantDensity:
+            return nk.CONSTANT_DENSITY, float(sw.rho_ref)
+        return None
+
+    def _run_compiled(self, path: Path, todo: list[float], coarse: set[float], check_set: set[float], h: float,
+                      sweep_kind: tuple[int, float]) -> Solve[list[int]]:
+        """``_run`` with the Newton steps of ``_continue_to`` in ``newton_kernel.segment`` (the same steps and
+        tests); the steps it hands back are taken by the full spectrum here, as ``_continue_to`` takes them."""
+        m, sw = self.m, self.sweep
+        k = m.k
+        consts = np.array([PRED_TOL, PRED_TOL_POST, GROW, SAME_ROOT, MAC_STEP, CONTENT_JUMP, CONTENT_AWAY, VEER_DROP,
+                           CONTENT_MIN, G_UNSTABLE, HUMP_ERR, HUMP_FLOOR])  # read at each call (tests vary them)
+        targets = np.asarray(todo, float)
+        marks: list[int] = []
+        it, fails = 0, 0
+        while it < targets.size:
+            last = path.states[-1]
+            n_hist = min(len(path.x), 3)
+            xh = np.zeros(3)
+            xh[3 - n_hist:] = path.x[-n_hist:]
+            lamh = np.zeros((3, k), complex)
+            lamh[3 - n_hist:] = [st.lam for st in path.states[-n_hist:]]
+            has = last.content is not None
+            end, it, h, fails, p1, pp, lam, vec, cont, tgt, first = nk.segment(
+                targets, it, h, fails, path.p[-1], xh, lamh, n_hist, np.ascontiguousarray(last.vec, complex),
+                np.ascontiguousarray(last.content, float) if has else np.zeros(k), has, len(path.p),
+                path.first_unstable is None, *nk.model_args(self.m), sweep_kind[0], sweep_kind[1], m.c_ref,
+                sw.min_step(path.p[-1]), H_MIN * sw.scale_at(path.p[-1]), FALLBACKS, consts, SEGMENT_ROOM)
+            base = len(path.p)
+            STATS.newton_roots += k * pp.size
+            for i in range(pp.size):
+                path.p.append(float(pp[i]))
+                path.x.append(float(pp[i]))
+                path.states.append(Branches(lam[i], vec[i], last.lag, cont[i]))
+            if first >= 0 and path.first_unstable is None:
+                path.first_unstable = base + int(first)
+            if pp.size:
+                self.newton_last = True
+            for i in np.flatnonzero(tgt >= 0).tolist():
+                p_t = todo[int(tgt[i])]
+                if p_t in check_set:
+                    marks.append(base + i)
+                if p_t in coarse:
+                    path.coarse.append(base + i)
+            if end != nk.NEED_EIG:
+                continue
+            p0 = path.p[-1]  # the full spectrum takes the step (``_continue_to``)
+            e1 = yield from self.eig(np.array([p1]))
+            yield from self._advance(path, p1, e1, 0)
+            self.newton_last = False
+            h = p1 - p0
+            if path.p[-1] >= todo[it]:  # it reached the target
+                if todo[it] in coarse:
+                    path.coarse.append(len(path.p) - 1)
+                it, fails = it + 1, 0
         return marks
 
     def _verify(self, path: Path, marks: list[int]) -> Solve[tuple[int, EigData] | None]:
@@ -190,8 +276,10 @@ class ContinuationTracker(Tracker):
         v, rho = sw.cond(np.array([p1]))
         q = 0.5 * rho * v**2
         x1 = float(sw.x(np.array([p1]), v, rho)[0])
-        pred = self._predict(path, x1)
         prev = path.states[-1]
+        if m.lam_a is not None and self.compiled:  # diagonalized aero matrix: the compiled step (newton_kernel)
+            return self._kernel_point(path, p1, x1, float(v[0]) / m.c_ref, float(q[0]))
+        pred = self._predict(path, x1)
         scale = np.maximum(np.abs(prev.lam), m.omega)
         vc = float(v[0]) / m.c_ref
         roots, data = yield RootsRequest([RootRequest(m, vc, float(q[0]), complex(s0), float(sc))
@@ -218,6 +306,26 @@ class ContinuationTracker(Tracker):
         if path.first_unstable is None and self._hump(path, p1, x1, new):
             return HUMP
         return new, x1, err
+
+    def _kernel_point(self, path: Path, p1: float, x1: float, vc: float,
+                      q: float) -> tuple[Branches, float, float] | str | None:
+        """``_newton_point`` by the compiled step (``newton_kernel.newton_point``: the same tests, no yield)."""
+        prev = path.states[-1]
+        n = min(len(path.x), 3)
+        k = prev.lam.size
+        has = prev.content is not None
+        content = np.ascontiguousarray(prev.content, float) if has else np.zeros(k)
+        careful = path.first_unstable is None
+        hump_ok = len(path.p) >= 3 and p1 - path.p[-1] > self.sweep.min_step(path.p[-1])
+        consts = np.array([self._pred_tol(path), SAME_ROOT, MAC_STEP, CONTENT_JUMP, CONTENT_AWAY, VEER_DROP,
+                           CONTENT_MIN, G_UNSTABLE, HUMP_ERR, HUMP_FLOOR])  # read at each call (tests vary them)
+        status, lam, vec, cont, err = nk.newton_point(
+            np.array(path.x[-n:], float), np.array([st.lam for st in path.states[-n:]], complex), x1, vc, q,
+            np.ascontiguousarray(prev.vec, complex), content, has, *nk.model_args(self.m), careful, hump_ok, consts)
+        STATS.newton_roots += k
+        if status == nk.ACCEPTED:
+            return Branches(lam, vec, prev.lag, cont), x1, float(err)
+        return {nk.HUMP: HUMP, nk.FULL: FULL}.get(int(status))
 
     def _veers(self, prev: Branches, new: Branches) -> bool:
         """True when an oscillatory branch of structural content below 0.5 loses more of it (by ``VEER_DROP``) in

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from . import newton_kernel as nk
 from .model import Model
 
 CONTENT_MIN = 0.1  # structural content below this (and near an aero pole): an aerodynamic lag root
@@ -190,6 +191,10 @@ def struct_vectors(
     sel, paired = _pair_selection(lam)
     rows = np.nonzero(sel)[0]
     ss = lam[sel]
+    if m.lam_a is not None:  # diagonalized aero matrix: the compiled null vectors (``newton_kernel.vectors``)
+        x, cont, lag, ok = nk.vectors(np.ascontiguousarray(ss, complex), np.ascontiguousarray((v / m.c_ref)[rows]),
+                                      np.ascontiguousarray(q[rows], float), *nk.model_args(m), CONTENT_MIN)
+        return _fill_pairs(lam.shape, sel, paired, x, cont, lag) if ok else None
     with np.errstate(all="ignore"):
         vc = (v / m.c_ref)[rows]
         h1, h2, on_pole, near = resolvent_terms(m, ss / vc)

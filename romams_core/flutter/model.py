@@ -42,6 +42,7 @@ class AeroPrep:
     w: np.ndarray | None  # eigenvectors of abar [na, na]
     wi: np.ndarray | None  # inverse of w
     poles: np.ndarray  # aero poles in t* as continuous eigenvalues (Tustin: of abar; zoh: ln(z) / dt*, z != 0)
+    clusters: list[np.ndarray] | None = None  # ``_pole_clusters`` of lam (None: none, or lam is None)
 
 
 PREP_CACHE: dict[tuple[Any, ...], AeroPrep] = {}
@@ -62,7 +63,7 @@ def _continuous_prep(a: np.ndarray) -> AeroPrep:
     if vectors_condition(w) < DIAG_COND_MAX:
         wi, w = np.linalg.inv(w).astype(complex), w.astype(complex)
     return AeroPrep(float(np.max(np.abs(lam))), None, a.copy(), lam if wi is not None else None,
-                    w if wi is not None else None, wi, lam)
+                    w if wi is not None else None, wi, lam, _pole_clusters(lam) if wi is not None else None)
 
 
 def aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> AeroPrep:
@@ -100,7 +101,7 @@ def aero_prep(a: np.ndarray, dt_star: float, coupling: str) -> AeroPrep:
         else:
             abar, lam = np.zeros((0, 0)), np.zeros(0, complex)
             w, wi = np.zeros((0, 0), complex), np.zeros((0, 0), complex)
-    prep = AeroPrep(rad, lu, abar, lam, w, wi, poles)
+    prep = AeroPrep(rad, lu, abar, lam, w, wi, poles, None if lam is None else _pole_clusters(lam))
     _cache(key, prep)
     return prep
 
@@ -136,6 +137,7 @@ class Model:
     poles: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))  # aero poles in t* (continuous)
     d1: np.ndarray | None = None  # [k, k] feedthrough of dxi/dt* (continuous aero models: aerodynamic damping)
     d2: np.ndarray | None = None  # [k, k] feedthrough of d2xi/dt*2 (continuous aero models: apparent mass)
+    kernel: Any = None  # the arrays of the compiled kernels (``newton_kernel.model_args``)
 
     @property
     def min_speed(self) -> float:
@@ -185,15 +187,16 @@ def _pole_clusters(lam: np.ndarray) -> list[np.ndarray] | None:
 
 
 def minimal_realization(lam: np.ndarray, w: np.ndarray, wi: np.ndarray, a: np.ndarray, b: np.ndarray,
-                        c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        c: np.ndarray, clusters: list[np.ndarray] | None
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(a, b, c) of the same transfer matrix c (sI - a)^-1 b without the states the modes neither drive nor see.
 
     a = w diag(lam) w^-1. A pole repeated d times (a rational-function ROM repeats every lag pole once per basis
     shape) contributes R / (s - lam) with R = (c w)_g (w^-1 b)_g of rank r <= min(d, k): it needs only r states
     (SVD of R; a complex pair 2r real states). Returns the input matrices when nothing can be removed (distinct
-    poles: the ARX ROMs), so their searches are unchanged.
+    poles: the ARX ROMs), so their searches are unchanged. ``clusters``: ``_pole_clusters(lam)``, computed once
+    per ROM (``AeroPrep.clusters``).
     """
-    clusters = _pole_clusters(lam)
     if clusters is None or all(g.size == 1 for g in clusters):
         return a, b, c
     ct, bt = c @ w, wi @ b
@@ -239,7 +242,7 @@ def make_model(om: np.ndarray, zt: np.ndarray, c_ref: float, aero: Any, coupling
             a, b, c, d = tustin_matrices(a, b, c, d, dt_star, lu=prep.lu, abar=abar, field="aero.A")
         if prep.lam is not None and prep.w is not None and prep.wi is not None:
             lam_a, res = prep.lam, ((c @ prep.w).T[:, :, None] * (prep.wi @ b)[:, None, :]).reshape(-1, k * k)
-            a, b, c = minimal_realization(prep.lam, prep.w, prep.wi, a, b, c)
+            a, b, c = minimal_realization(prep.lam, prep.w, prep.wi, a, b, c, prep.clusters)
     return Model(k, a.shape[0], om, zt, c_ref, dt_star, coupling, a, b, c, d, lam_a, res, None, prep.poles,
                  parts.d1, parts.d2)
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import newton_kernel as nk
 from .eigen import CONTENT_MIN, EigRequest, null_vectors, resolvent_dense, resolvent_diag
 from .model import Model
 
@@ -137,6 +138,8 @@ def roots_and_vectors(reqs: list[RootRequest], want: np.ndarray,
     vector [xi; s xi / omega] [2k], structural content, lag-root flag): ``eigen.struct_vectors``' quantities."""
     m0 = reqs[0].model
     assert all(r.model.coupling == "tustin" and (r.model.lam_a is None) == (m0.lam_a is None) for r in reqs)
+    if m0.lam_a is not None:
+        return _compiled(reqs, want, maxit)
     k = m0.k
     a = _root_arrays(reqs)
     out: list[complex | None] = [None] * len(reqs)
@@ -163,6 +166,28 @@ def roots_and_vectors(reqs: list[RootRequest], want: np.ndarray,
 
 
 RootData = tuple[np.ndarray, float, bool]
+
+
+def _compiled(reqs: list[RootRequest], want: np.ndarray,
+              maxit: int) -> tuple[list[complex | None], list[RootData | None]]:
+    """``roots_and_vectors`` of diagonalized models by ``newton_kernel.roots_vectors``, one call per model."""
+    out: list[complex | None] = [None] * len(reqs)
+    data: list[RootData | None] = [None] * len(reqs)
+    groups: dict[int, list[int]] = {}
+    for i, r in enumerate(reqs):
+        groups.setdefault(id(r.model), []).append(i)
+    for idx in groups.values():
+        rs = [reqs[i] for i in idx]
+        roots, found, xs, cont, lag, good = nk.roots_vectors(
+            np.array([r.s0 for r in rs], complex), np.array([r.scale for r in rs], float),
+            np.array([r.vc for r in rs], float), np.array([r.q for r in rs], float), want[idx].astype(bool),
+            *nk.model_args(rs[0].model), CONTENT_MIN, maxit)
+        for j, i in enumerate(idx):
+            if found[j]:
+                out[i] = complex(roots[j])
+                if want[i] and good[j]:
+                    data[i] = (xs[j], float(cont[j]), bool(lag[j]))
+    return out, data
 
 
 def _vectors(a: dict[str, np.ndarray], idx: np.ndarray, k: int, n: int) -> list[RootData | None]:
