@@ -33,6 +33,10 @@ def random_rom(seed: int, na: int = 10, k: int = 4) -> SimpleNamespace:
                            C=0.3 * rng.standard_normal((k, na)), D=0.5 * rng.standard_normal((k, k)), dt_star=0.1)
 
 
+EIGEN = "eigen"  # both paths on the same tracker: the default continues the fast path's branches by Newton, which
+# the reference path (no diagonalization) does with eigen-solves (test_flutter_continuation compares the trackers)
+
+
 def both_paths(monkeypatch: pytest.MonkeyPatch, fn):
     """(fast result, reference result) of fn(); the reference path is forced by refusing diagonalization."""
     model.PREP_CACHE.clear()
@@ -77,7 +81,7 @@ def test_defective_aero_matrix_keeps_the_reference_path():
 def test_random_four_mode_models_fast_equals_reference(monkeypatch, seed):
     """12 random coupled 4-mode ROMs (coalescence and SDOFF cases) at zeta = 0.01: fast path = reference path."""
     rom = random_rom(seed)
-    kw = dict(zeta=0.01, a_ref=300.0, rho_ref=1.0)
+    kw = dict(zeta=0.01, a_ref=300.0, rho_ref=1.0, tracking=EIGEN)
     fast, ref = both_paths(monkeypatch, lambda: flutter_analysis(OMEGA4, rom, 1.0, 0.8, **kw))
     assert ref.flutter_found
     assert_same(fast, ref)
@@ -86,7 +90,8 @@ def test_random_four_mode_models_fast_equals_reference(monkeypatch, seed):
 def test_random_model_matched_sweep_fast_equals_reference(monkeypatch):
     """Matched sweep (altitude and speed change together) of a random 4-mode ROM: fast path = reference path."""
     rom = random_rom(4)
-    fast, ref = both_paths(monkeypatch, lambda: flutter_analysis(OMEGA4, rom, 1.0, 0.8, sweep="matched", zeta=0.01))
+    fast, ref = both_paths(monkeypatch, lambda: flutter_analysis(OMEGA4, rom, 1.0, 0.8, sweep="matched", zeta=0.01,
+                                                                 tracking=EIGEN))
     assert_same(fast, ref)
 
 
@@ -169,6 +174,6 @@ def test_rfa_model_with_repeated_poles_fast_equals_reference(monkeypatch, seed):
     assert np.all(sv[0][:, :, -1] == 0.0) and np.all(sv[1][:, -1] == 0.0) and np.all(sv[2][:, -1])
     assert m.na == 12 and aero.A.shape[0] == 18  # minimal realization: 3 lag poles x 4 modes (not x 6 shapes)
     fast, ref = both_paths(monkeypatch, lambda: flutter_analysis(OMEGA4, aero, 1.0, 0.8, zeta=0.01, a_ref=300.0,
-                                                                  rho_ref=1.0))
+                                                                  rho_ref=1.0, tracking=EIGEN))
     assert ref.flutter_found
     assert_same(fast, ref)

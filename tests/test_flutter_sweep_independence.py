@@ -178,13 +178,14 @@ def test_constructed_lag_root_crossing_a_branch_is_not_followed(monkeypatch):
     Without the structural-content terms in the assignment (the previous tracker), 60 and 200 points follow
     the lag root after the crossing and report no flutter at all: the test would catch that regression."""
     rom = _lag_rom()
-    res = [flutter_analysis(LAG_OMEGA, rom, 1.0, 0.0, n_points=n, **LAG_KW) for n in N_POINTS]
+    res = [flutter_analysis(LAG_OMEGA, rom, 1.0, 0.0, n_points=n, tracking=t, **LAG_KW)
+           for n in N_POINTS for t in ("auto", "eigen")]  # the default (the continuation here) and the eigen tracker
     _same_point(res)
     assert res[0].flutter_mode == 1 and res[0].v_flutter_m_s == pytest.approx(107.68, rel=1e-3)
-    with monkeypatch.context() as mp:
+    with monkeypatch.context() as mp:  # the eigen tracker's assignment: what its content terms are for
         mp.setattr(tracking, "LAG_PENALTY", 0.0)
         mp.setattr(tracking, "W_CONTENT", 0.0)
-        old = [flutter_analysis(LAG_OMEGA, rom, 1.0, 0.0, n_points=n, **LAG_KW) for n in (60, 200)]
+        old = [flutter_analysis(LAG_OMEGA, rom, 1.0, 0.0, n_points=n, tracking="eigen", **LAG_KW) for n in (60, 200)]
     assert not any(r.flutter_found for r in old)
 
 

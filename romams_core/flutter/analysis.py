@@ -40,8 +40,16 @@ class _Search:
 
 
 TRACKERS = {"continuation": ContinuationTracker, "eigen": Tracker}  # docs/flutter.md 9.7
-DEFAULT_TRACKING = "eigen"  # the continuation takes 5-6 eigen-solves per search instead of 24-38, but costs more
-# Python time per search than the solves it saves (docs/performance.md 3)
+DEFAULT_TRACKING = "auto"  # "continuation" where its steps are compiled (diagonalized Tustin aero matrix, constant-
+# speed or constant-density sweep: a third of the eigen-solves, docs/performance.md 6b), else "eigen" (the same
+# flutter points; the continuation's Python steps of the other cases cost more than the solves they save)
+
+
+def resolve_tracking(tracking: str, model: Model, sweep: Sweep) -> str:
+    """The tracker of a search: ``tracking`` itself, or for "auto" the one ``DEFAULT_TRACKING`` describes."""
+    if tracking != "auto":
+        return tracking
+    return "continuation" if ContinuationTracker(model, sweep, 0.0).kernel_sweep() is not None else "eigen"
 
 
 def flutter_analysis(omega: np.ndarray, aero: Any, c_ref: float, mach: float, **options: Any) -> FlutterResult:
@@ -53,13 +61,13 @@ def flutter_analysis(omega: np.ndarray, aero: Any, c_ref: float, mach: float, **
     at Mach 0 omega_max c_ref), q_max (Pa, constant-speed; default 4 x 0.5 rho_ref (M a_ref)^2), altitude_range_m
     (matched); n_points coarse sweep points (the tracker refines where needed, so the flutter point does not depend
     on it); rtol of the crossing (brentq, then polished to 1e-11); tracking: "eigen" (one full eigen-solve per sweep
-    point, ``tracking.Tracker``) or "continuation" (Newton on det T(s) between a few eigen-solves,
-    ``continuation.ContinuationTracker``; the same flutter points); SDOFF when the flutter vector's largest modal
-    share is >= sdoff_share AND that mode alone is unstable at q <= sdoff_q_factor q_f; k_band (reduced frequency on
-    c_ref / 2): a flutter point above the band the ROM was identified in is flagged ``outside_band``. Reports the
-    TRUE speed ``v_flutter_m_s`` and the equivalent airspeed ``v_eas_m_s``; no flutter in range is a result with
-    flutter_found False. Invalid input raises romams_core.errors.InputError naming the field. The same search as one
-    member of ``flutter_batch``.
+    point, ``tracking.Tracker``), "continuation" (Newton on det T(s) between a few eigen-solves,
+    ``continuation.ContinuationTracker``; the same flutter points) or "auto" (default: ``DEFAULT_TRACKING``); SDOFF
+    when the flutter vector's largest modal share is >= sdoff_share AND that mode alone is unstable at q <=
+    sdoff_q_factor q_f; k_band (reduced frequency on c_ref / 2): a flutter point above the band the ROM was
+    identified in is flagged ``outside_band``. Reports the TRUE speed ``v_flutter_m_s`` and the equivalent airspeed
+    ``v_eas_m_s``; no flutter in range is a result with flutter_found False. Invalid input raises
+    romams_core.errors.InputError naming the field. The same search as one member of ``flutter_batch``.
     """
     return run_one(flutter_search(prepare_search(omega, aero, c_ref, mach, **options)))
 
@@ -92,10 +100,10 @@ def prepare_search(
     sw = make_sweep(sweep, mach, om, c_ref, rho_ref, a_ref, v_max, q_max, altitude_range_m)
     head: dict[str, Any] = dict(mach=mach, sweep=sweep, coupling=coupling, rho_ref=rho_ref, a_ref=a_ref,
                                 c_ref=c_ref, dt_star=model.dt_star, altitude_ref_m=h_ref)
-    if tracking not in TRACKERS:
-        raise InputError("tracking", f"must be one of {sorted(TRACKERS)}, got {tracking!r}")
+    if tracking not in TRACKERS and tracking != "auto":
+        raise InputError("tracking", f"must be one of {sorted(TRACKERS) + ['auto']}, got {tracking!r}")
     return _Search(model, sw, head, int(n_points), float(sdoff_share), float(sdoff_q_factor), track_weight,
-                   float(rtol), None if k_band is None else float(k_band), tracking)
+                   float(rtol), None if k_band is None else float(k_band), resolve_tracking(tracking, model, sw))
 
 
 def flutter_search(se: _Search) -> Solve[FlutterResult]:

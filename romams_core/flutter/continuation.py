@@ -118,7 +118,7 @@ class ContinuationTracker(Tracker):
     def _run(self, path: Path, todo: list[float], coarse: set[float], check_set: set[float],
              h: float) -> Solve[list[int]]:
         """Continue the path over the target points ``todo``; the path indices of the checkpoints reached by Newton."""
-        sweep_kind = self._kernel_sweep()
+        sweep_kind = self.kernel_sweep()
         if sweep_kind is not None:
             return (yield from self._run_compiled(path, todo, coarse, check_set, h, sweep_kind))
         marks = []
@@ -130,7 +130,7 @@ class ContinuationTracker(Tracker):
                 path.coarse.append(len(path.p) - 1)
         return marks
 
-    def _kernel_sweep(self) -> tuple[int, float] | None:
+    def kernel_sweep(self) -> tuple[int, float] | None:
         """(``newton_kernel`` sweep kind, its parameter) when the compiled steps apply (diagonalized aero matrix,
         constant-speed or constant-density sweep), else None (the steps of ``_continue_to``)."""
         sw = self.sweep
