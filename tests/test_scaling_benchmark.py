@@ -37,8 +37,10 @@ def test_sweeps_are_filled_with_ratios(result: dict) -> None:
 
 
 def test_cost_grows_with_the_number_of_machs(result: dict) -> None:
-    """1, 5, 10 Machs: the flutter part scales with the Machs, so 10 Machs cost more than twice one Mach."""
+    """1, 5, 10 Machs: the flutter part (the structure's cost less its modal analysis, which does not depend on the
+    Machs and is most of a one-Mach structure since the compiled continuation) costs more than twice as much at 10
+    Machs as at one."""
     one, five, ten = result["structure_by_machs"]
     assert (one["machs"], five["machs"], ten["machs"]) == (1, 5, 10)
-    assert ten["alone_ms"] > 2 * one["alone_ms"]
-    assert ten["batched_ms"] > 2 * one["batched_ms"]
+    assert ten["alone_ms"] - ten["alone_modal_ms"] > 2 * (one["alone_ms"] - one["alone_modal_ms"])
+    assert ten["batched_ms"] - ten["batched_modal_ms"] > 2 * (one["batched_ms"] - one["batched_modal_ms"])

@@ -3,7 +3,8 @@
 The coarse V-g data of a result (``FlutterResult.v``, ``g``, ...) start at the first sweep point. The curves here
 add what the tracker computed anyway -- the in-vacuo poles at q = 0 (frequencies omega_i, g = -2 zeta_i), the
 fixed start points, every refinement point and the flutter point itself -- and, for the plot only, a few tracked
-points inside each later interval where a branch's damping changes sign (one batched eigen-solve for all of them).
+points inside each later interval where a branch's damping changes sign (Newton roots of det T(s) from the
+interval's end states when the tracker's steps are compiled, else one batched eigen-solve for all of them).
 Nothing here feeds back into the flutter point: the search has finished before these points are solved.
 """
 
@@ -13,6 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import newton_kernel as nk
+from .batch import STATS
+from .eigen import CONTENT_MIN
 from .sweeps import eas
 from .tracking import G_UNSTABLE, Branches, Path, Solve, Tracker, assign
 
@@ -66,19 +70,50 @@ def vg_curves(tracker: Tracker, path: Path, flutter: tuple[float, Branches] | No
     if cross:
         frac = np.arange(1, CROSSING_POINTS + 1) / (CROSSING_POINTS + 1.0)
         pts = np.concatenate([pa[i] + (pa[i + 1] - pa[i]) * frac for i in cross])
-        e = yield from tracker.eig(pts)
-        extra_p, extra_lam = [], []
-        for n, i in enumerate(cross):
-            prev = states[i]
-            for m in range(CROSSING_POINTS):
-                prev, _ = assign(prev, e.point(n * CROSSING_POINTS + m), tracker.weight, tracker.m.omega)
-                extra_p.append(float(pts[n * CROSSING_POINTS + m]))
-                extra_lam.append(prev.lam)
-        pa = np.concatenate([pa, extra_p])
+        extra_lam = _newton_points(tracker, pts, [(states[i].lam, states[i + 1].lam) for i in cross], frac)
+        if extra_lam is None:
+            e = yield from tracker.eig(pts)
+            extra_lam = []
+            for n, i in enumerate(cross):
+                prev = states[i]
+                for m in range(CROSSING_POINTS):
+                    prev, _ = assign(prev, e.point(n * CROSSING_POINTS + m), tracker.weight, tracker.m.omega)
+                    extra_lam.append(prev.lam)
+        pa = np.concatenate([pa, pts])
         lam = np.concatenate([lam, np.array(extra_lam)])
-        kind += [4] * len(extra_p)
+        kind += [4] * pts.size
     order = np.argsort(pa, kind="stable")
     return _curves(tracker, pa[order], lam[order], np.asarray(kind, np.int8)[order])
+
+
+def _newton_points(tracker: Tracker, pts: np.ndarray, ends: list[tuple[np.ndarray, np.ndarray]],
+                   frac: np.ndarray) -> list[np.ndarray] | None:
+    """Branch roots [k] at the plot-only points ``pts`` by Newton on det T(s) (``newton_kernel.roots_vectors``) from
+    the linear interpolation of the interval's end states ``ends`` (CROSSING_POINTS points per interval at ``frac``)
+    when the tracker's steps are compiled (``ContinuationTracker.kernel_sweep``); None (the eigen-solves decide)
+    otherwise, or when a root does not converge, lands farther than ``PRED_TOL_POST`` from its prediction or two
+    branches meet."""
+    from .continuation import PRED_TOL_POST, SAME_ROOT, ContinuationTracker
+
+    m = tracker.m
+    if not isinstance(tracker, ContinuationTracker) or tracker.kernel_sweep() is None:
+        return None
+    pred = np.concatenate([lo[None, :] + frac[:, None] * (hi - lo)[None, :] for lo, hi in ends])  # [n, k]
+    scale = np.concatenate([np.repeat(np.maximum(np.abs(lo), m.omega)[None, :], frac.size, axis=0)
+                            for lo, _ in ends])
+    v, rho = tracker.sweep.cond(pts)
+    k = m.k
+    vc, q = np.repeat(v / m.c_ref, k), np.repeat(0.5 * rho * v**2, k)
+    roots, found, *_ = nk.roots_vectors(pred.ravel(), scale.ravel(), vc, q, np.zeros(vc.size, bool),
+                                        *nk.model_args(m), CONTENT_MIN, 30)
+    STATS.newton_roots += vc.size
+    lam = roots.reshape(pred.shape)
+    if not found.all() or np.max(np.abs(lam - pred) / scale) > PRED_TOL_POST:
+        return None
+    d = np.minimum(np.abs(lam[:, :, None] - lam[:, None, :]), np.abs(lam[:, :, None] - lam[:, None, :].conj()))
+    if np.min(d / scale[:, :, None] + np.eye(k)) < SAME_ROOT:
+        return None
+    return list(lam)
 
 
 def _curves(tracker: Tracker, p: np.ndarray, lam: np.ndarray, kind: np.ndarray) -> VgCurves:
