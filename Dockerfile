@@ -23,7 +23,7 @@ RUN useradd --create-home --uid 1000 romams && mkdir -p /data && chown romams /d
 USER romams
 # the numba kernels (flutter tracker, DLM) compiled once into the image (site-packages is read-only to this user)
 ENV NUMBA_CACHE_DIR=/home/romams/numba-cache
-RUN python -c "from romams_core.flutter.assignment import warm_up; warm_up()"
+RUN python -c "from romams_core.flutter.newton_kernel import warm_up; warm_up()"
 RUN python -c "from romams_core.aero.dlm_kernel import warm_up; warm_up()"
 VOLUME ["/data"]
 EXPOSE 8000

@@ -15,7 +15,7 @@ $(BIN)/romams: pyproject.toml client/pyproject.toml
 	$(BIN)/pip install -q -e '.[dev]'
 	$(BIN)/pip install -q -e client/  # romams-client (import romams_client): the client as its own distribution
 	$(BIN)/pip install -q --no-deps 'pyNastran==1.4.1' 'cpylog>=1.5' || echo "pyNastran not installed: Nastran OP2/BDF support disabled"
-	$(BIN)/python -c "from romams_core.flutter.assignment import warm_up; warm_up()"  # numba's cache of the tracker
+	$(BIN)/python -c "from romams_core.flutter.newton_kernel import warm_up; warm_up()"  # numba's cache of the tracker
 	$(BIN)/python -c "from romams_core.aero.dlm_kernel import warm_up; warm_up()"  # and of the DLM kernel
 	touch $(BIN)/romams
 

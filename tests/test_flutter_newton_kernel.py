@@ -127,3 +127,14 @@ def test_compiled_vectors_equal_the_numpy_null_vectors():
     np.testing.assert_allclose(mac, 1.0, atol=1e-10)
     np.testing.assert_allclose(fast[1], ref[1], atol=1e-10)
     np.testing.assert_array_equal(fast[2], ref[2])
+
+
+def test_warm_up_compiles_the_signatures_the_searches_use():
+    """After ``warm_up`` (make install, the image, a worker's start) searches of all three sweeps add no compiled
+    signature: no evaluation waits for a compilation."""
+    nk.warm_up()
+    before = {f: len(getattr(nk, f).signatures) for f in ("segment", "newton_point", "roots_vectors", "vectors")}
+    for sweep in ("constant-speed", "constant-density", "matched"):
+        flutter_analysis(OMEGA4, random_rom(1), 1.0, 0.8, sweep=sweep, tracking="continuation", **KW)
+    after = {f: len(getattr(nk, f).signatures) for f in before}
+    assert after == before and all(n >= 1 for n in after.values())

@@ -52,7 +52,7 @@ app = make_app()
 def _compile_kernels(**_: Any) -> None:
     """Compile (or load from numba's cache) the flutter tracker's kernels in the main process, before the pool
     forks: no evaluation waits for a compilation."""
-    from romams_core.flutter.assignment import warm_up
+    from romams_core.flutter.newton_kernel import warm_up
 
     warm_up()
 

@@ -25,6 +25,11 @@ unstable point), but reaches the points by predictor-corrector steps instead of 
   branch that slid onto another root) the path is cut, the full-spectrum step replaces the Newton one and the
   continuation resumes from there.
 
+Compiled steps (``newton_kernel``, docs/flutter.md 9.9): with a diagonalized aero matrix the Newton steps between
+full eigen-solves run in numba (``_run_compiled``: whole segments for the constant-speed and constant-density
+sweeps; ``_kernel_point``: one step per call for the matched sweep), with the same predictor, corrector and tests;
+``compiled = False`` runs the numpy steps below, their reference.
+
 A Tustin model whose aero matrix is not diagonalized (defective, the reference path) gets T(s) from dense solves
 with s* I - A (``eigen.resolvent_terms``), so both paths continue the branches alike; the zero-order hold has no
 det T(s) of this form and uses ``Tracker`` unchanged.
@@ -69,6 +74,13 @@ FALLBACKS = 4  # full-spectrum steps of length H_MIN in a row after which the fu
 
 HUMP = "hump"  # rejection of a step by the damping-hump test (shrinks to the sweep's minimum step, no eigen-solve)
 FULL = "full"  # a step the full spectrum must take at once (a branch of structural content below 0.5)
+
+
+def _step_consts() -> np.ndarray:
+    """The acceptance constants of a compiled step after its predictor tolerance (``newton_kernel.newton_point``),
+    read at each call (tests vary them)."""
+    return np.array([SAME_ROOT, MAC_STEP, CONTENT_JUMP, CONTENT_AWAY, VEER_DROP, CONTENT_MIN, G_UNSTABLE, HUMP_ERR,
+                     HUMP_FLOOR])
 
 
 class ContinuationTracker(Tracker):
@@ -148,8 +160,7 @@ class ContinuationTracker(Tracker):
         tests); the steps it hands back are taken by the full spectrum here, as ``_continue_to`` takes them."""
         m, sw = self.m, self.sweep
         k = m.k
-        consts = np.array([PRED_TOL, PRED_TOL_POST, GROW, SAME_ROOT, MAC_STEP, CONTENT_JUMP, CONTENT_AWAY, VEER_DROP,
-                           CONTENT_MIN, G_UNSTABLE, HUMP_ERR, HUMP_FLOOR])  # read at each call (tests vary them)
+        consts = np.concatenate([[PRED_TOL, PRED_TOL_POST, GROW], _step_consts()])
         targets = np.asarray(todo, float)
         marks: list[int] = []
         it, fails = 0, 0
@@ -317,8 +328,7 @@ class ContinuationTracker(Tracker):
         content = np.ascontiguousarray(prev.content, float) if has else np.zeros(k)
         careful = path.first_unstable is None
         hump_ok = len(path.p) >= 3 and p1 - path.p[-1] > self.sweep.min_step(path.p[-1])
-        consts = np.array([self._pred_tol(path), SAME_ROOT, MAC_STEP, CONTENT_JUMP, CONTENT_AWAY, VEER_DROP,
-                           CONTENT_MIN, G_UNSTABLE, HUMP_ERR, HUMP_FLOOR])  # read at each call (tests vary them)
+        consts = np.concatenate([[self._pred_tol(path)], _step_consts()])
         status, lam, vec, cont, err = nk.newton_point(
             np.array(path.x[-n:], float), np.array([st.lam for st in path.states[-n:]], complex), x1, vc, q,
             np.ascontiguousarray(prev.vec, complex), content, has, *nk.model_args(self.m), careful, hump_ok, consts)

@@ -480,3 +480,27 @@ def model_args(m: Any) -> ModelArgs:
                     np.ascontiguousarray(2.0 * m.zeta * m.omega, float), np.ascontiguousarray(m.omega**2, float),
                     np.ascontiguousarray(m.omega, float), np.ascontiguousarray(rhs, complex))
     return m.kernel
+
+
+def warm_up() -> None:
+    """Compile every kernel of the tracker (``assignment.warm_up`` and these) for the layouts the tracker passes, or
+    load them from numba's cache: a worker calls it before its first evaluation, ``make install`` and the image build
+    fill the cache."""
+    from .assignment import warm_up as warm_up_assignment
+
+    warm_up_assignment()
+    k = 2
+    lam_a = np.array([-1.0 + 0.0j, -2.0 + 1.0j, -2.0 - 1.0j])
+    res = np.full((3, k * k), 0.1 + 0.0j)
+    omega = np.array([10.0, 30.0])
+    args = (lam_a, res, 4.0 / np.abs(lam_a), np.zeros(k * k), np.zeros(k * k), np.zeros(k * k), False,
+            0.02 * omega, omega**2, omega, np.array([1.0 + 0.0j, 0.5 + 0.5j]))
+    lam = np.array([-0.1 + 10.0j, -0.3 + 30.0j])
+    vec = np.ascontiguousarray(np.vstack([np.eye(k), np.eye(k)]) + 0j)
+    consts = np.array([0.05, 0.3, 8.0, 1e-6, 0.9, 0.1, 0.5, 0.002, 0.1, 1e-9, 0.5, 1e-6])
+    segment(np.array([1.0, 2.0]), 0, 0.5, 0, 0.0, np.array([0.0, 0.0, 0.0]), np.vstack([lam, lam, lam]), 1, vec,
+            np.ones(k), True, 1, True, *args, CONSTANT_SPEED, 100.0, 1.0, 1e-4, 1e-3, 4, consts, 256)
+    newton_point(np.array([0.0]), lam[None, :].copy(), 1.0, 100.0, 1.0, vec, np.ones(k), True, *args, True, False,
+                 np.concatenate([consts[:1], consts[3:]]))
+    roots_vectors(lam.copy(), omega.copy(), np.full(k, 100.0), np.ones(k), np.ones(k, np.bool_), *args, 0.1, 30)
+    vectors(lam.copy(), np.full(k, 100.0), np.ones(k), *args, 0.1)

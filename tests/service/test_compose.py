@@ -81,9 +81,9 @@ def test_commands_name_real_code():
     dockerfile = (ROOT / "Dockerfile").read_text()
     assert "uvicorn\", \"api.app:app\"" in dockerfile and "COPY migrations" in dockerfile
     # the image compiles the tracker's numba kernels into a cache its user can read (the function exists)
-    assert "from romams_core.flutter.assignment import warm_up; warm_up()" in dockerfile
+    assert "from romams_core.flutter.newton_kernel import warm_up; warm_up()" in dockerfile
     assert "ENV NUMBA_CACHE_DIR=" in dockerfile.split("USER romams")[1]
-    assert callable(importlib.import_module("romams_core.flutter.assignment").warm_up)
+    assert callable(importlib.import_module("romams_core.flutter.newton_kernel").warm_up)
 
 
 def test_environment_variables_are_settings_fields():
