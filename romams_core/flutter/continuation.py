@@ -28,7 +28,7 @@ unstable point), but reaches the points by predictor-corrector steps instead of 
 Compiled steps (``newton_kernel``, docs/flutter.md 9.9): with a diagonalized aero matrix the Newton steps between
 full eigen-solves run in numba (``_run_compiled``: whole segments for the constant-speed and constant-density
 sweeps; ``_kernel_point``: one step per call for the matched sweep), with the same predictor, corrector and tests;
-``compiled = False`` runs the numpy steps below, their reference.
+``newton_kernel.ENABLED = False`` runs the numpy steps below, their reference.
 
 A Tustin model whose aero matrix is not diagonalized (defective, the reference path) gets T(s) from dense solves
 with s* I - A (``eigen.resolvent_terms``), so both paths continue the branches alike; the zero-order hold has no
@@ -86,7 +86,6 @@ def _step_consts() -> np.ndarray:
 class ContinuationTracker(Tracker):
     """Branch continuation by Newton on det T(s) (module docstring); ``Tracker`` for models without it."""
 
-    compiled = True  # the diagonal path's steps by ``newton_kernel`` (False: the numpy path, its reference)
     newton_last = False  # the path's last point came from a Newton step (not yet checked by a full solve)
 
     def track_search(self, grid: np.ndarray) -> Solve[Path]:
@@ -146,7 +145,7 @@ class ContinuationTracker(Tracker):
         """(``newton_kernel`` sweep kind, its parameter) when the compiled steps apply (diagonalized aero matrix,
         constant-speed or constant-density sweep), else None (the steps of ``_continue_to``)."""
         sw = self.sweep
-        if not self.compiled or self.m.lam_a is None:
+        if not nk.ENABLED or self.m.lam_a is None:
             return None
         if type(sw) is ConstantSpeed:
             return nk.CONSTANT_SPEED, float(sw.v0)
@@ -288,7 +287,7 @@ class ContinuationTracker(Tracker):
         q = 0.5 * rho * v**2
         x1 = float(sw.x(np.array([p1]), v, rho)[0])
         prev = path.states[-1]
-        if m.lam_a is not None and self.compiled:  # diagonalized aero matrix: the compiled step (newton_kernel)
+        if m.lam_a is not None and nk.ENABLED:  # diagonalized aero matrix: the compiled step (newton_kernel)
             return self._kernel_point(path, p1, x1, float(v[0]) / m.c_ref, float(q[0]))
         pred = self._predict(path, x1)
         scale = np.maximum(np.abs(prev.lam), m.omega)

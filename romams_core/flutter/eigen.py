@@ -191,7 +191,7 @@ def struct_vectors(
     sel, paired = _pair_selection(lam)
     rows = np.nonzero(sel)[0]
     ss = lam[sel]
-    if m.lam_a is not None:  # diagonalized aero matrix: the compiled null vectors (``newton_kernel.vectors``)
+    if m.lam_a is not None and nk.ENABLED:  # diagonalized aero matrix: the compiled null vectors (newton_kernel)
         x, cont, lag, ok = nk.vectors(np.ascontiguousarray(ss, complex), np.ascontiguousarray((v / m.c_ref)[rows]),
                                       np.ascontiguousarray(q[rows], float), *nk.model_args(m), CONTENT_MIN)
         return _fill_pairs(lam.shape, sel, paired, x, cont, lag) if ok else None

@@ -138,7 +138,7 @@ def roots_and_vectors(reqs: list[RootRequest], want: np.ndarray,
     vector [xi; s xi / omega] [2k], structural content, lag-root flag): ``eigen.struct_vectors``' quantities."""
     m0 = reqs[0].model
     assert all(r.model.coupling == "tustin" and (r.model.lam_a is None) == (m0.lam_a is None) for r in reqs)
-    if m0.lam_a is not None:
+    if m0.lam_a is not None and nk.ENABLED:
         return _compiled(reqs, want, maxit)
     k = m0.k
     a = _root_arrays(reqs)

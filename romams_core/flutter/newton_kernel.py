@@ -28,6 +28,8 @@ import numpy as np
 
 from .assignment import content_jump, may_cross
 
+ENABLED = True  # the flutter code uses these kernels on diagonalized models (False: the numpy code they replace, the
+# reference of the tests)
 ACCEPTED, AMBIGUOUS, HUMP, FULL = 0, 1, 2, 3  # status of a step (continuation: None, HUMP, FULL)
 
 
