@@ -15,6 +15,8 @@ Modules:
 - ``newton``: Newton roots of det T(s), many requests iterated together;
 - ``sweeps``: the constant-density, constant-speed and matched parametrizations p -> (V, rho);
 - ``tracking``: continuation of the structural branches with adaptive refinement and lag-root rejection;
+- ``continuation``: the branches continued by Newton on det T(s) between few eigen-solves (the default where
+  compiled); ``newton_kernel``: its compiled steps, Newton roots and null vectors;
 - ``crossing``: the first Re(s) = 0 crossing on a structural branch, refined with brentq;
 - ``point``: modal shares, SDOFF single-mode check, frequency separation;
 - ``result``: FlutterResult; ``analysis``: flutter_analysis and flutter_batch (many designs at one Mach);
