@@ -12,7 +12,7 @@ import numpy as np
 from romams_core.errors import InputError
 
 from .batch import run_one, run_searches
-from .continuation import ContinuationTracker
+from .continuation import ContinuationTracker, kernel_sweep
 from .crossing import make_bracket, refine_crossing
 from .curves import vg_curves
 from .inputs import check_flutter_inputs, check_search_options
@@ -49,7 +49,7 @@ def resolve_tracking(tracking: str, model: Model, sweep: Sweep) -> str:
     """The tracker of a search: ``tracking`` itself, or for "auto" the one ``DEFAULT_TRACKING`` describes."""
     if tracking != "auto":
         return tracking
-    return "continuation" if ContinuationTracker(model, sweep, 0.0).kernel_sweep() is not None else "eigen"
+    return "continuation" if kernel_sweep(model, sweep) is not None else "eigen"
 
 
 def flutter_analysis(omega: np.ndarray, aero: Any, c_ref: float, mach: float, **options: Any) -> FlutterResult:

@@ -42,8 +42,9 @@ import numpy as np
 from . import newton_kernel as nk
 from .batch import STATS
 from .eigen import CONTENT_MIN, EigData
+from .model import Model
 from .newton import RootRequest, RootsRequest
-from .sweeps import ConstantDensity, ConstantSpeed
+from .sweeps import ConstantDensity, ConstantSpeed, Sweep
 from .tracking import (
     CONTENT_AWAY,
     CONTENT_JUMP,
@@ -74,6 +75,25 @@ FALLBACKS = 4  # full-spectrum steps of length H_MIN in a row after which the fu
 
 HUMP = "hump"  # rejection of a step by the damping-hump test (shrinks to the sweep's minimum step, no eigen-solve)
 FULL = "full"  # a step the full spectrum must take at once (a branch of structural content below 0.5)
+
+
+def branches_meet(lam: np.ndarray, scale: np.ndarray) -> bool:
+    """True when two branch roots of some row of lam [..., k] (rad/s) sit on one root or on a conjugate pair (closer
+    than ``SAME_ROOT`` relative to ``scale`` [..., k]): a root and its conjugate are one mode pair."""
+    d = np.minimum(np.abs(lam[..., :, None] - lam[..., None, :]), np.abs(lam[..., :, None] - lam[..., None, :].conj()))
+    return bool(np.min(d / scale[..., :, None] + np.eye(lam.shape[-1])) < SAME_ROOT)
+
+
+def kernel_sweep(model: Model, sweep: Sweep) -> tuple[int, float] | None:
+    """(``newton_kernel`` sweep kind, its parameter) when the compiled steps apply (kernels enabled, diagonalized
+    aero matrix, constant-speed or constant-density sweep), else None (the steps of ``_continue_to``)."""
+    if not nk.ENABLED or model.lam_a is None:
+        return None
+    if type(sweep) is ConstantSpeed:
+        return nk.CONSTANT_SPEED, float(sweep.v0)
+    if type(sweep) is ConstantDensity:
+        return nk.CONSTANT_DENSITY, float(sweep.rho_ref)
+    return None
 
 
 def _step_consts() -> np.ndarray:
@@ -129,7 +149,7 @@ class ContinuationTracker(Tracker):
     def _run(self, path: Path, todo: list[float], coarse: set[float], check_set: set[float],
              h: float) -> Solve[list[int]]:
         """Continue the path over the target points ``todo``; the path indices of the checkpoints reached by Newton."""
-        sweep_kind = self.kernel_sweep()
+        sweep_kind = kernel_sweep(self.m, self.sweep)
         if sweep_kind is not None:
             return (yield from self._run_compiled(path, todo, coarse, check_set, h, sweep_kind))
         marks = []
@@ -140,18 +160,6 @@ class ContinuationTracker(Tracker):
             if p_t in coarse:
                 path.coarse.append(len(path.p) - 1)
         return marks
-
-    def kernel_sweep(self) -> tuple[int, float] | None:
-        """(``newton_kernel`` sweep kind, its parameter) when the compiled steps apply (diagonalized aero matrix,
-        constant-speed or constant-density sweep), else None (the steps of ``_continue_to``)."""
-        sw = self.sweep
-        if not nk.ENABLED or self.m.lam_a is None:
-            return None
-        if type(sw) is ConstantSpeed:
-            return nk.CONSTANT_SPEED, float(sw.v0)
-        if type(sw) is ConstantDensity:
-            return nk.CONSTANT_DENSITY, float(sw.rho_ref)
-        return None
 
     def _run_compiled(self, path: Path, todo: list[float], coarse: set[float], check_set: set[float], h: float,
                       sweep_kind: tuple[int, float]) -> Solve[list[int]]:
@@ -298,9 +306,7 @@ class ContinuationTracker(Tracker):
             return None
         lam = np.array(roots, complex)
         err = float(np.max(np.abs(lam - pred) / scale))
-        d = np.minimum(np.abs(lam[:, None] - lam[None, :]), np.abs(lam[:, None] - lam[None, :].conj()))
-        sep = d / scale[:, None] + np.eye(lam.size)  # a root and its conjugate are one root (one mode pair)
-        if err > self._pred_tol(path) or sep.min() < SAME_ROOT:
+        if err > self._pred_tol(path) or branches_meet(lam, scale):
             return None
         if any(d[2] for d in data):  # a branch on a lag root
             return None

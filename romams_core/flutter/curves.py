@@ -90,13 +90,13 @@ def _newton_points(tracker: Tracker, pts: np.ndarray, ends: list[tuple[np.ndarra
                    frac: np.ndarray) -> list[np.ndarray] | None:
     """Branch roots [k] at the plot-only points ``pts`` by Newton on det T(s) (``newton_kernel.roots_vectors``) from
     the linear interpolation of the interval's end states ``ends`` (CROSSING_POINTS points per interval at ``frac``)
-    when the tracker's steps are compiled (``ContinuationTracker.kernel_sweep``); None (the eigen-solves decide)
+    when the tracker's steps are compiled (``continuation.kernel_sweep``); None (the eigen-solves decide)
     otherwise, or when a root does not converge, lands farther than ``PRED_TOL_POST`` from its prediction or two
     branches meet."""
-    from .continuation import PRED_TOL_POST, SAME_ROOT, ContinuationTracker
+    from .continuation import PRED_TOL_POST, ContinuationTracker, branches_meet, kernel_sweep
 
     m = tracker.m
-    if not isinstance(tracker, ContinuationTracker) or tracker.kernel_sweep() is None:
+    if not isinstance(tracker, ContinuationTracker) or kernel_sweep(m, tracker.sweep) is None:
         return None
     pred = np.concatenate([lo[None, :] + frac[:, None] * (hi - lo)[None, :] for lo, hi in ends])  # [n, k]
     scale = np.concatenate([np.repeat(np.maximum(np.abs(lo), m.omega)[None, :], frac.size, axis=0)
@@ -108,10 +108,7 @@ def _newton_points(tracker: Tracker, pts: np.ndarray, ends: list[tuple[np.ndarra
                                         *nk.model_args(m), CONTENT_MIN, 30)
     STATS.newton_roots += vc.size
     lam = roots.reshape(pred.shape)
-    if not found.all() or np.max(np.abs(lam - pred) / scale) > PRED_TOL_POST:
-        return None
-    d = np.minimum(np.abs(lam[:, :, None] - lam[:, None, :]), np.abs(lam[:, :, None] - lam[:, None, :].conj()))
-    if np.min(d / scale[:, :, None] + np.eye(k)) < SAME_ROOT:
+    if not found.all() or np.max(np.abs(lam - pred) / scale) > PRED_TOL_POST or branches_meet(lam, scale):
         return None
     return list(lam)
 

@@ -43,10 +43,6 @@ def _lu(a: np.ndarray, perturb: bool) -> tuple[np.ndarray, np.ndarray, bool]:
     k = a.shape[0]
     lu = a.copy()
     piv = np.arange(k)
-    big = 0.0
-    for i in range(k):
-        for j in range(k):
-            big = max(big, abs(a[i, j]))
     for c in range(k):
         p = c
         best = abs(lu[c, c])
@@ -55,7 +51,12 @@ def _lu(a: np.ndarray, perturb: bool) -> tuple[np.ndarray, np.ndarray, bool]:
                 best = abs(lu[r, c])
                 p = r
         if best == 0.0:
-            if not perturb or big == 0.0:
+            big = 0.0
+            if perturb:
+                for i in range(k):
+                    for j in range(k):
+                        big = max(big, abs(a[i, j]))
+            if big == 0.0:
                 return lu, piv, True
             lu[c, c] = 1e-16 * big
         if p != c:
@@ -477,7 +478,9 @@ def model_args(m: Any) -> ModelArgs:
         d1 = zero if m.d1 is None else np.ascontiguousarray(m.d1, float).ravel()
         d2 = zero if m.d2 is None else np.ascontiguousarray(m.d2, float).ravel()
         lam_a, res, near_r = merged_poles(m.lam_a, m.res, m.near_r)
-        rhs = (1.0 + 0.37 * np.arange(m.k)) * np.exp(0.91j * np.arange(m.k))  # ``eigen._rhs``
+        from .eigen import _rhs  # eigen imports this module
+
+        rhs = _rhs(m.k)[:, 0]
         m.kernel = (lam_a, res, near_r, np.ascontiguousarray(m.d, float).ravel(), d1, d2, rate,
                     np.ascontiguousarray(2.0 * m.zeta * m.omega, float), np.ascontiguousarray(m.omega**2, float),
                     np.ascontiguousarray(m.omega, float), np.ascontiguousarray(rhs, complex))
