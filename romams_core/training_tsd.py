@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import asdict, replace
 from typing import Any, cast
 
 import numpy as np
@@ -65,11 +66,52 @@ SUPERCRITICAL_WARNING = ("supercritical mean flow (min surface Cp {cp_min:.3f} b
                          "about 6 % or train the ROM at grid_scale 1.5")
 
 
+#: every cell count of a TSD grid is multiplied by this when the mean flow on the requested grid is supercritical
+#: (``supercritical_refine``): on AGARD 445.6 at M 0.96 the default grid's direct flutter speed is 308.74 m/s, the
+#: grids x 1.5 and x 2 give 291.84 and 291.20 m/s (within 0.22 %), so x 1.5 takes the unsafe 5.5-5.7 % grid error
+#: out of the default; at M 0.901 (subcritical) halving every cell moves it by 0.06 % (docs/transonic.md 7.20, 7.21)
+SUPERCRITICAL_REFINE = 1.5
+
+#: the warning of a ROM trained on the grid refined for its supercritical mean flow (``supercritical_refine``)
+REFINED_WARNING = ("supercritical mean flow (min surface Cp {cp_min:.3f} below the sonic Cp* {cp_star:.3f} on the "
+                   "requested grid): trained on the grid with every cell count x {factor:g} (supercritical_refine), "
+                   "where the flutter point of AGARD 445.6 at M 0.96 is within 0.22 % of the grid x 2 "
+                   "(docs/transonic.md 7.21)")
+
+
 def supercritical_warning(mean_flow: MeanFlow) -> str | None:
     """``SUPERCRITICAL_WARNING`` for a mean flow whose surface Cp falls below the sonic Cp*, else None."""
-    if mean_flow.cp_min >= mean_flow.cp_star:
+    if not is_supercritical(mean_flow):
         return None
     return SUPERCRITICAL_WARNING.format(cp_min=mean_flow.cp_min, cp_star=mean_flow.cp_star)
+
+
+def is_supercritical(mean_flow: MeanFlow) -> bool:
+    """True when the mean flow's lowest surface Cp lies below the sonic Cp* (a supersonic region on the wing)."""
+    return mean_flow.cp_min < mean_flow.cp_star
+
+
+def check_supercritical_refine(value: Any) -> float | None:
+    """Validate ``supercritical_refine``: None (never refine) or a factor in [1, 4] (InputError naming it)."""
+    if value is None:
+        return None
+    check_number("supercritical_refine", value, 1.0, strict=False, upper=4.0, upper_strict=False)
+    return float(value)
+
+
+def refined_for_mean_flow(solver: TsdSolver, mesh: StandardMesh, mach: float, factor: float | None,
+                          progress: ProgressFn | None = None) -> tuple[TsdSolver, str | None]:
+    """``solver`` itself, or a copy on its grid refined ``factor`` times when the steady mean flow at ``mach`` on
+    its own grid is supercritical, with the ROM's warning that says so. A flat section is never supercritical (its
+    mean flow is the free stream), so only a thick one costs the steady run on the requested grid."""
+    if factor is None or factor == 1.0 or solver.thickness_form is None:
+        return solver, None
+    solver.mean_flow(mesh, mach, progress, share=0.05)
+    coarse = solver.last_mean_flow
+    if coarse is None or not is_supercritical(coarse):
+        return solver, None
+    refined = replace(solver, grid=solver.grid.scaled(factor))
+    return refined, REFINED_WARNING.format(cp_min=coarse.cp_min, cp_star=coarse.cp_star, factor=factor)
 
 
 #: further ARX orders tried on the same records when the requested ones miss nrmse_tol (a refit costs seconds; the
@@ -99,9 +141,11 @@ def check_tsd_settings(n_shapes: int | None = None, *, thickness_form: str | Non
                        thickness_to_chord: float = 0.0, grid_scale: float = 1.0, tsd_dt: float = 0.02,
                        coefficients: str = "ames", symmetry: str | None = None, low_k_corner: float = 0.0,
                        k_max: float = 1.5, anchor_k: Sequence[float] | None = DEFAULT_ANCHOR_K,
-                       anchor_hold: float = STEP_HOLD, **_: Any) -> None:
+                       anchor_hold: float = STEP_HOLD, supercritical_refine: float | None = SUPERCRITICAL_REFINE,
+                       **_: Any) -> None:
     """Validate TSD training settings (InputError naming the field); ``n_shapes`` also checks the grid size."""
     check_thickness(thickness_form, thickness_to_chord)
+    check_supercritical_refine(supercritical_refine)
     if symmetry is not None:
         image_sign(symmetry)
     spec = tsd_grid_spec(grid_scale)
@@ -156,6 +200,7 @@ def train_tsd_rom(
     low_k_corner: float = 0.0,
     anchor_k: Sequence[float] | None = DEFAULT_ANCHOR_K,
     anchor_hold: float = STEP_HOLD,
+    supercritical_refine: float | None = SUPERCRITICAL_REFINE,
 ) -> TrainedRom:
     """ARX ROM of the TSD solver for shapes [N, m] (m) at ``mach`` about the steady mean flow of the section.
 
@@ -174,15 +219,22 @@ def train_tsd_rom(
     over ``ANCHOR_BAND_K`` (``anchor_band_error``). Costs about 2.3 training runs for 8 shapes; pins the low-k GAF
     that decides transonic ROM-AMS flutter (docs/transonic.md 7.7, 7.11). None or [] trains a plain ROM, which
     carries ``UNANCHORED_WARNING`` (7.10).
+    ``supercritical_refine`` (default ``SUPERCRITICAL_REFINE``, 1.5): when the steady mean flow on the requested grid
+    is supercritical, the ROM is trained on that grid with every cell count multiplied by this (the coarse grid's
+    first-order supersonic region puts the flutter speed up to 6 % high, docs/transonic.md 7.20, 7.21); None keeps
+    the requested grid, and the ROM carries ``SUPERCRITICAL_WARNING``.
     """
     shapes = np.asarray(shapes, dtype=float)
     m = shapes.shape[1] if shapes.ndim == 2 else 1
     check_tsd_settings(m, thickness_form=thickness_form, thickness_to_chord=thickness_to_chord,
                        grid_scale=grid_scale, tsd_dt=tsd_dt, coefficients=coefficients, symmetry=symmetry,
-                       low_k_corner=low_k_corner, k_max=k_max, anchor_k=anchor_k, anchor_hold=anchor_hold)
+                       low_k_corner=low_k_corner, k_max=k_max, anchor_k=anchor_k, anchor_hold=anchor_hold,
+                       supercritical_refine=supercritical_refine)
     anchor = anchors_on(anchor_k)
     solver = solver or make_tsd_solver(thickness_form, thickness_to_chord, grid_scale, tsd_dt, coefficients)
     solver = cast(TsdSolver, with_symmetry(solver, symmetry))  # replaced before the run: its mean flow is read below
+    solver, refined = refined_for_mean_flow(solver, mesh, mach, check_supercritical_refine(supercritical_refine),
+                                            _scaled(progress, 0.0, 0.02))
     if n_steps is None:
         n_steps = tsd_n_steps(m, na, nb, dt_star)
     share = 0.3 if anchor else 1.0
@@ -196,8 +248,10 @@ def train_tsd_rom(
         rom.warnings.append(f"validation NRMSE {100 * worst:.1f} % (> 2 %): ARX of order {rom.na}/{rom.nb} on the "
                             "TSD's long-memory compressible response")
     if solver.last_mean_flow is not None:
-        rom.mean_flow = solver.last_mean_flow.to_dict()
-        if (supercritical := supercritical_warning(solver.last_mean_flow)) is not None:
+        rom.mean_flow = _mean_flow_dict(solver)
+        if refined is not None:
+            rom.warnings.append(refined)
+        elif (supercritical := supercritical_warning(solver.last_mean_flow)) is not None:
             rom.warnings.append(supercritical)
         if not solver.last_mean_flow.steady.converged:
             steady = solver.last_mean_flow.steady
@@ -212,7 +266,7 @@ def train_tsd_rom(
     else:
         rom.warnings.append(UNANCHORED_WARNING)
     if solver.step_halvings and solver.last_mean_flow is not None:
-        rom.mean_flow = solver.last_mean_flow.to_dict()  # the last run's step
+        rom.mean_flow = _mean_flow_dict(solver)  # the last run's step
         rom.warnings.append(f"the TSD march diverged at the capped step and was repeated with it halved "
                             f"{solver.step_halvings} time(s), to dt {solver.last_mean_flow.dt:.4g} t*")
     if linearity_check:
@@ -223,6 +277,12 @@ def train_tsd_rom(
             rom.warnings.append(f"GAC scale nonlinearly with amplitude: {100 * rom.linearity_error:.1f} % "
                                 f"(> {100 * LINEARITY_TOL:.0f} %); reduce displacement_fraction")
     return rom
+
+
+def _mean_flow_dict(solver: TsdSolver) -> dict[str, Any]:
+    """The solver's last mean flow as the ROM stores it, with the grid it was solved on (cell counts, extents)."""
+    assert solver.last_mean_flow is not None
+    return {**solver.last_mean_flow.to_dict(), "grid": asdict(solver.grid)}
 
 
 def _scaled(progress: ProgressFn | None, start: float, share: float) -> ProgressFn | None:

@@ -79,7 +79,10 @@ def test_train_command_rejects_bad_input(data_dir):
                        (["--solver", "tsd", "--anchor-k", "low"], "--anchor-k"),
                        (["--solver", "uvlm", "--anchor-k", "0.05"], "--anchor-k"),
                        (["--solver", "tsd", "--coefficients", "krupp"], "options.coefficients"),
-                       (["--solver", "dlm", "--coefficients", "nlr"], "--coefficients")):
+                       (["--solver", "dlm", "--coefficients", "nlr"], "--coefficients"),
+                       (["--solver", "tsd", "--supercritical-refine", "0.5"], "options.supercritical_refine"),
+                       (["--solver", "tsd", "--supercritical-refine", "fine"], "--supercritical-refine"),
+                       (["--solver", "dlm", "--supercritical-refine", "2"], "applies to the transonic solver")):
         res = runner.invoke(app, ["train", "--mach", "0.9", *args])
         assert res.exit_code == 2 and hint in res.output, res.output
 

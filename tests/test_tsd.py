@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -465,9 +466,63 @@ def test_supercritical_mean_flow_warns_in_the_rom():
     sub = solver.last_mean_flow
     assert sub is not None and sub.cp_min > sub.cp_star and supercritical_warning(sub) is None
     shapes = np.column_stack([0.01 * (mesh.y / AGARD_LIKE.semispan) ** 2])
-    rom = train_tsd_rom(mesh, shapes, 0.96, solver, anchor_k=None, na=2, nb=2, n_steps=200, nrmse_tol=1.0)
+    rom = train_tsd_rom(mesh, shapes, 0.96, solver, anchor_k=None, na=2, nb=2, n_steps=200, nrmse_tol=1.0,
+                        supercritical_refine=None)
     mf = solver.last_mean_flow
     assert mf is not None and mf.cp_min < mf.cp_star < 0.0
     assert abs(mf.cp_star - tsd_coefficients(0.96).cp_star) < 1e-12
     text = supercritical_warning(mf)
     assert text is not None and f"{mf.cp_min:.3f}" in text and text in rom.warnings
+    assert rom.mean_flow["grid"]["n_chord"] == spec.n_chord
+
+
+def test_supercritical_mean_flow_refines_the_grid():
+    """By default (``supercritical_refine`` 1.5) a supercritical mean flow on the requested grid makes the training
+    run on that grid with every cell count x 1.5: the ROM's mean flow is the refined grid's, it says so instead of
+    warning of the grid dependence, and its GAC differ from the coarse grid's. A subcritical mean flow (M 0.7) and a
+    flat section keep the requested grid."""
+    from romams_core.training_tsd import REFINED_WARNING, refined_for_mean_flow, train_tsd_rom
+
+    mesh = standard_mesh(AGARD_LIKE)
+    spec = GridSpec(n_chord=16, n_upstream=6, n_downstream=8, n_span=6, n_outboard=4, n_z=10, dz0=0.04)
+    solver = TsdSolver(thickness_form="naca65a004", thickness_to_chord=0.04, grid=spec, steady_steps=300)
+    same, note = refined_for_mean_flow(solver, mesh, 0.7, 1.5)
+    assert same is solver and note is None
+    flat = TsdSolver(grid=spec, steady_steps=300)
+    same, note = refined_for_mean_flow(flat, mesh, 0.96, 1.5)
+    assert same is flat and note is None and flat.last_mean_flow is None
+    shapes = np.column_stack([0.01 * (mesh.y / AGARD_LIKE.semispan) ** 2])
+    kw = dict(anchor_k=None, na=2, nb=2, n_steps=200, nrmse_tol=1.0)
+    coarse = train_tsd_rom(mesh, shapes, 0.96, solver, supercritical_refine=None, **kw)
+    rom = train_tsd_rom(mesh, shapes, 0.96, solver, **kw)
+    assert rom.mean_flow["grid"] == dataclasses.asdict(spec.scaled(1.5))
+    assert rom.mean_flow["grid"]["n_chord"] == 24 and len(rom.mean_flow["x_over_c"]) > len(coarse.mean_flow["x_over_c"])
+    mf = solver.last_mean_flow  # the requested grid's, solved to decide
+    assert mf is not None and mf.cp_min < mf.cp_star
+    text = REFINED_WARNING.format(cp_min=mf.cp_min, cp_star=mf.cp_star, factor=1.5)
+    assert text in rom.warnings and not any(w.startswith("supercritical mean flow (min surface Cp") and w != text
+                                            for w in rom.warnings)
+    change = np.linalg.norm(rom.gac_train - coarse.gac_train) / np.linalg.norm(coarse.gac_train)
+    assert 1e-3 < change < 0.5  # another grid, the same wing and signal
+
+
+def test_steady_state_is_marched_once_per_setting(monkeypatch):
+    """A training's runs start from one steady state: a second ``mean_flow`` with the same planform, Mach and
+    settings returns a copy of the first (bit-identical, not shared), and a change of Mach or of a setting marches
+    again."""
+    mesh = standard_mesh(AGARD_LIKE)
+    spec = GridSpec(n_chord=16, n_upstream=6, n_downstream=8, n_span=6, n_outboard=4, n_z=10, dz0=0.04)
+    solver = TsdSolver(thickness_form="naca65a004", thickness_to_chord=0.04, grid=spec, steady_steps=300)
+    marches = []
+    real = TsdSolver._mean_flow
+    monkeypatch.setattr(TsdSolver, "_mean_flow", lambda self, *a: marches.append(a[1]) or real(self, *a))
+    first = solver.mean_flow(mesh, 0.9)
+    first.phi[0, 0, 0] += 1.0  # a run changes its flow; the kept state must not see it
+    again = solver.mean_flow(mesh, 0.9)
+    assert marches == [0.9]
+    fresh = TsdSolver(thickness_form="naca65a004", thickness_to_chord=0.04, grid=spec, steady_steps=300)
+    assert np.array_equal(again.phi, fresh.mean_flow(mesh, 0.9).phi)
+    solver.mean_flow(mesh, 0.8)
+    solver.steady_tol = 1e-4
+    solver.mean_flow(mesh, 0.8)
+    assert marches == [0.9, 0.9, 0.8, 0.8]

@@ -29,6 +29,16 @@ def _reduce_option(value: str | None) -> int | str | None:
     return order
 
 
+def _refine_option(value: str) -> float | None:
+    """--supercritical-refine: 'none' or a factor (checked by the core with the rest of the settings)."""
+    if value.strip().lower() == "none":
+        return None
+    try:
+        return float(value)
+    except ValueError:
+        raise typer.BadParameter("must be 'none' or a factor in [1, 4]", param_hint="--supercritical-refine") from None
+
+
 @app.command("train")
 def train_command(
     wing: str = typer.Option("cropped-delta", "--wing", help=WING_HELP),
@@ -59,6 +69,10 @@ def train_command(
                                         "anchored to direct step runs of each shape (default 0.025,0.05,0.1; "
                                         "'none': a plain ROM, which warns of its low-k scatter; docs/transonic.md "
                                         "7.11)"),
+    supercritical_refine: str | None = typer.Option(None, "--supercritical-refine", help="tsd: when the mean flow "
+                                                    "on the requested grid is supercritical, train on it with every "
+                                                    "cell count x this (default 1.5; 'none': keep the grid, which "
+                                                    "warns; docs/transonic.md 7.21)"),
     gaf: Path | None = typer.Option(None, "--gaf", help="import a GAF table (NPZ, CSV, or Nastran's QHH from an "
                                     "OUTPUT4 .op4 or punch .pch file, computed on the basis shapes) as the ROM of "
                                     "solver external:LABEL instead of training one"),
@@ -128,9 +142,13 @@ def train_command(
             except ValueError:
                 raise typer.BadParameter(f"comma-separated reduced frequencies, got {anchor_k!r}",
                                          param_hint="--anchor-k") from None
-    elif grid_scale is not None or linearity_check or anchor_k is not None or coefficients is not None:
+        if supercritical_refine is not None:
+            options["supercritical_refine"] = _refine_option(supercritical_refine)
+    elif (grid_scale is not None or linearity_check or anchor_k is not None or coefficients is not None
+          or supercritical_refine is not None):
         raise typer.BadParameter(f"applies to the transonic solver (tsd), not {solver}",
-                                 param_hint="--grid-scale/--linearity-check/--anchor-k/--coefficients")
+                                 param_hint="--grid-scale/--linearity-check/--anchor-k/--coefficients"
+                                 "/--supercritical-refine")
     store = open_store()
     try:
         wing_id, w = resolve_wing(store, wing)

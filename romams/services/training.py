@@ -104,19 +104,21 @@ def rom_identity(solver: str = DEFAULT_SOLVER, na: int | None = None, nb: int | 
 
     ``na``/``nb`` None: the solver's default orders (``default_orders``).
 
-    For the TSD the wing's section (thickness form and t/c, ``section_options``) and the default anchors
-    (``DEFAULT_ANCHOR_K``) are part of the identity unless the options name them; for every built-in solver (each
-    models all three root conditions) a root symmetry other than symmetric (antisymmetric, or none: a free wing) is
-    (a symmetric wing's identity names none, as before)."""
+    For the TSD the wing's section (thickness form and t/c, ``section_options``), the default anchors
+    (``DEFAULT_ANCHOR_K``) and the supercritical grid refinement (``SUPERCRITICAL_REFINE``) are part of the identity
+    unless the options name them; for every built-in solver (each models all three root conditions) a root symmetry
+    other than symmetric (antisymmetric, or none: a free wing) is (a symmetric wing's identity names none, as
+    before)."""
     if is_frequency_solver(solver) or is_external(solver):
         na = nb = 0  # an imported model is one per (wing, basis, Mach, label): importing again replaces it
     na = default_orders(solver)[0] if na is None else na
     nb = default_orders(solver)[1] if nb is None else nb
     opts = {} if is_external(solver) else dict(options or {})
-    if solver == "tsd":  # the default anchors are part of the identity: a plain ROM stored earlier is not reused
-        from romams_core.training_tsd import DEFAULT_ANCHOR_K
+    if solver == "tsd":  # the default anchors and grid refinement are part of the identity: a ROM stored without
+        from romams_core.training_tsd import DEFAULT_ANCHOR_K, SUPERCRITICAL_REFINE  # them is not reused
 
-        opts = {"anchor_k": list(DEFAULT_ANCHOR_K), **(section_options(wing) if wing is not None else {}), **opts}
+        opts = {"anchor_k": list(DEFAULT_ANCHOR_K), "supercritical_refine": SUPERCRITICAL_REFINE,
+                **(section_options(wing) if wing is not None else {}), **opts}
         if opts["anchor_k"] is not None and len(opts["anchor_k"]) == 0:
             opts["anchor_k"] = None  # [] and null both ask for a plain ROM: one identity
     symmetry = getattr(wing, "symmetry", "symmetric") if wing is not None else "symmetric"

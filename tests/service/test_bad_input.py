@@ -144,6 +144,9 @@ def test_training_errors_once_a_basis_exists(client, tmp_path):
     for bad in (5.0, 1e6, "long"):  # the step records' hold (t*)
         problem(client.post(roms, json={"mach": 0.9, "options": {"anchor_hold": bad}, **tsd}), 422,
                 "options.anchor_hold")
+    for bad in (0.5, 8.0, "fine"):  # the grid refinement of a supercritical mean flow: none or 1-4
+        problem(client.post(roms, json={"mach": 0.9, "options": {"supercritical_refine": bad}, **tsd}), 422,
+                "options.supercritical_refine")
     assert _counts(client) == before
 
 

@@ -20,15 +20,18 @@ def test_identity_carries_the_wing_section():
     assert section_options(agard) == {"thickness_form": "naca65a004", "thickness_to_chord": 0.03994}
     assert section_options(delta) == {"thickness_form": None, "thickness_to_chord": 0.0}
     ident = rom_identity("tsd", 8, 8, {"grid_scale": 0.5}, wing=agard)
-    assert ident["options"] == {"anchor_k": [0.025, 0.05, 0.1], "grid_scale": 0.5, "thickness_form": "naca65a004",
-                                "thickness_to_chord": 0.03994}  # the default anchors are part of it
+    assert ident["options"] == {"anchor_k": [0.025, 0.05, 0.1], "grid_scale": 0.5, "supercritical_refine": 1.5,
+                                "thickness_form": "naca65a004", "thickness_to_chord": 0.03994}  # with the defaults
+    assert rom_identity("tsd", options={"supercritical_refine": None}, wing=agard)["options"][
+        "supercritical_refine"] is None  # the requested grid kept: another ROM
     for plain in (None, []):  # both ask for a plain ROM: one identity
         assert rom_identity("tsd", options={"anchor_k": plain}, wing=agard)["options"]["anchor_k"] is None
     # an explicit section wins; other solvers ignore the wing
     assert rom_identity("tsd", options={"thickness_to_chord": 0.03}, wing=agard)["options"]["thickness_to_chord"] \
         == 0.03
     assert rom_identity("dlm", wing=agard)["options"] == {}
-    assert {"grid_scale", "thickness_form", "linearity_check", "tsd_dt", "anchor_k", "anchor_hold"} \
+    assert {"grid_scale", "thickness_form", "linearity_check", "tsd_dt", "anchor_k", "anchor_hold",
+            "supercritical_refine"} \
         <= allowed_options("tsd")
 
 

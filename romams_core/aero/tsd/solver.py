@@ -15,7 +15,7 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_EXCEPTION, Future, ThreadPoolExecutor, wait
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -203,6 +203,10 @@ class TsdSolver:
     far_field: str = TsdFlow.far_field  # the 3-D outer faces (``TsdFlow.far_field``): "wake" or "plain" (slip walls)
     last_mean_flow: MeanFlow | None = field(default=None, init=False, repr=False)
     step_halvings: int = field(default=0, init=False)  # halvings this solver needed so far (kept for later runs)
+    #: the last converged steady state (key, flow, summary): a training, its step records and a linearity check
+    #: each start from it, so it is marched once per (planform, Mach, settings, step)
+    _steady: tuple[tuple[Any, ...], TsdFlow, MeanFlow] | None = field(default=None, init=False, repr=False,
+                                                                        compare=False)
 
     def __post_init__(self) -> None:
         self.thickness_form, self.thickness_to_chord = check_thickness(self.thickness_form,
@@ -312,10 +316,24 @@ class TsdSolver:
         mach = self.check_mach(mach)
         grid = self.build_grid(mesh)
         while True:
+            key = self._steady_key(mesh, mach)
+            if self._steady is not None and self._steady[0] == key:
+                self.last_mean_flow = self._steady[2]
+                return copy.deepcopy(self._steady[1])
             try:
-                return self._mean_flow(grid, mach, progress, share)
+                flow = self._mean_flow(grid, mach, progress, share)
             except Diverged as exc:
                 self._halve_step(grid, exc)
+                continue
+            assert self.last_mean_flow is not None
+            self._steady = (key, copy.deepcopy(flow), self.last_mean_flow)
+            return flow
+
+    def _steady_key(self, mesh: StandardMesh, mach: float) -> tuple[Any, ...]:
+        """What a steady state depends on: the planform, the Mach number, every setting and the current step."""
+        settings = tuple((f.name, repr(getattr(self, f.name))) for f in fields(self)
+                         if f.init and f.name not in ("record_threads", "name"))
+        return repr(mesh.planform), float(mach), self.step_halvings, settings
 
     def _mean_flow(self, grid: TsdGrid, mach: float, progress: ProgressFn | None, share: float) -> TsdFlow:
         """One steady march at the current step (``mean_flow``); Diverged when its field became non-finite."""
