@@ -14,7 +14,7 @@ import numpy as np
 from romams_core.errors import InputError
 from romams_core.validation import check_int
 
-__all__ = ["ArxModel", "fit_arx", "arx_simulate", "nrmse", "regressors"]
+__all__ = ["ArxModel", "fit_arx", "arx_simulate", "nrmse", "band_nrmse", "band_part", "regressors"]
 
 
 @dataclass
@@ -121,3 +121,28 @@ def nrmse(reference: np.ndarray, predicted: np.ndarray) -> np.ndarray:
     err = np.sqrt(np.mean((np.asarray(predicted, dtype=float) - ref) ** 2, axis=0))
     rms = np.sqrt(np.mean(ref**2, axis=0))
     return np.where(rms > 0, err / np.where(rms > 0, rms, 1.0), np.where(err > 0, np.inf, 0.0))
+
+
+def band_part(x: np.ndarray, dt_star: float, k_band: float) -> np.ndarray:
+    """The part of records x [T, m] at reduced frequencies k <= k_band (omega t* = 2 k; the record's DFT with the
+    bins above it zeroed: an orthogonal projection, so the band's and the rest's energies add up to the whole)."""
+    x = np.asarray(x, dtype=float)
+    spec = np.fft.rfft(x, axis=0)
+    spec[2.0 * np.pi * np.fft.rfftfreq(x.shape[0], d=dt_star) > 2.0 * k_band] = 0.0
+    return np.fft.irfft(spec, n=x.shape[0], axis=0)
+
+
+def band_nrmse(reference: np.ndarray, predicted: np.ndarray, dt_star: float, k_band: float) -> np.ndarray:
+    """``nrmse`` of the records' parts at k <= k_band (``band_part``) per output [m]: a linear model's error where
+    the input excites it, without what a nonlinear or numerical response puts far outside the input's band."""
+    ref = np.asarray(reference, dtype=float)
+    return nrmse(band_part(ref, dt_star, k_band), band_part(predicted, dt_star, k_band))
+
+
+def out_of_band_share(reference: np.ndarray, dt_star: float, k_band: float) -> np.ndarray:
+    """RMS share [m] of records [T, m] at k > k_band (the rest of ``band_part``): for a multisine input band-limited
+    below k_band it is response that no linear model of the input can give (distortion, numerical noise)."""
+    ref = np.asarray(reference, dtype=float)
+    rms = np.sqrt(np.mean(ref**2, axis=0))
+    rest = np.sqrt(np.mean((ref - band_part(ref, dt_star, k_band)) ** 2, axis=0))
+    return np.where(rms > 0, rest / np.where(rms > 0, rms, 1.0), 0.0)

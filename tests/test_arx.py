@@ -68,3 +68,22 @@ def test_ar_ridge_shrinks_only_the_autoregressive_part():
     assert np.abs(fir.a).max() < 1e-4  # a huge value forces an FIR model ...
     plain_fir = fit_arx(u, f, 0, 3)
     np.testing.assert_allclose(fir.b, plain_fir.b, rtol=1e-3, atol=1e-3 * np.abs(plain_fir.b).max())  # ... the FIR fit
+
+
+def test_band_part_splits_records_at_a_reduced_frequency():
+    """Tones on the record's DFT bins at k 0.5 and 12 (omega = 2 k per t*): ``band_part`` at k 3 keeps the first
+    exactly, ``out_of_band_share`` is the second's RMS share, and ``band_nrmse`` sees only the in-band error."""
+    from romams_core.arx import band_nrmse, band_part, out_of_band_share
+
+    dt, n = 0.1, 1000
+    t = dt * np.arange(n)
+    w_lo, w_hi = 2 * np.pi * 8 / (n * dt), 2 * np.pi * 380 / (n * dt)  # bins 8 and 380: k 0.25 and 11.9
+    low = np.column_stack([np.cos(w_lo * t + 0.3), 2.0 * np.sin(w_lo * t)])
+    high = 0.2 * np.column_stack([np.cos(w_hi * t), np.cos(w_hi * t + 1.0)])
+    np.testing.assert_allclose(band_part(low + high, dt, 3.0), low, atol=1e-12)
+    share = out_of_band_share(low + high, dt, 3.0)
+    expect = np.sqrt(0.02 / (np.mean(low**2, axis=0) + 0.02))
+    np.testing.assert_allclose(share, expect, rtol=1e-10)
+    assert np.allclose(band_nrmse(low + high, low, dt, 3.0), 0.0, atol=1e-12)  # the high tone is out of band
+    np.testing.assert_allclose(band_nrmse(low + high, 1.01 * low + high, dt, 3.0), 0.01, rtol=1e-10)
+    assert np.all(nrmse(low + high, low) > 0.09)  # the whole-record error counts it

@@ -105,7 +105,7 @@ def rom_identity(solver: str = DEFAULT_SOLVER, na: int | None = None, nb: int | 
     ``na``/``nb`` None: the solver's default orders (``default_orders``).
 
     For the TSD the wing's section (thickness form and t/c, ``section_options``), the default anchors
-    (``DEFAULT_ANCHOR_K``) and the supercritical grid refinement (``SUPERCRITICAL_REFINE``) are part of the identity
+    (``DEFAULT_ANCHOR_K``), the supercritical grid refinement and the validation band are part of the identity
     unless the options name them; for every built-in solver (each models all three root conditions) a root symmetry
     other than symmetric (antisymmetric, or none: a free wing) is (a symmetric wing's identity names none, as
     before)."""
@@ -115,9 +115,14 @@ def rom_identity(solver: str = DEFAULT_SOLVER, na: int | None = None, nb: int | 
     nb = default_orders(solver)[1] if nb is None else nb
     opts = {} if is_external(solver) else dict(options or {})
     if solver == "tsd":  # the default anchors and grid refinement are part of the identity: a ROM stored without
-        from romams_core.training_tsd import DEFAULT_ANCHOR_K, SUPERCRITICAL_REFINE  # them is not reused
+        from romams_core.training_tsd import (  # them is not reused
+            DEFAULT_ANCHOR_K,
+            SUPERCRITICAL_REFINE,
+            TSD_VALIDATION_BAND,
+        )
 
         opts = {"anchor_k": list(DEFAULT_ANCHOR_K), "supercritical_refine": SUPERCRITICAL_REFINE,
+                "validation_band": TSD_VALIDATION_BAND,
                 **(section_options(wing) if wing is not None else {}), **opts}
         if opts["anchor_k"] is not None and len(opts["anchor_k"]) == 0:
             opts["anchor_k"] = None  # [] and null both ask for a plain ROM: one identity

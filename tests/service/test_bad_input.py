@@ -147,6 +147,8 @@ def test_training_errors_once_a_basis_exists(client, tmp_path):
     for bad in (0.5, 8.0, "fine"):  # the grid refinement of a supercritical mean flow: none or 1-4
         problem(client.post(roms, json={"mach": 0.9, "options": {"supercritical_refine": bad}, **tsd}), 422,
                 "options.supercritical_refine")
+    problem(client.post(roms, json={"mach": 0.9, "options": {"validation_band": 1.0}, **tsd}), 422,
+            "options.validation_band", ">= 1.5")  # below the excitation band's k_max
     assert _counts(client) == before
 
 

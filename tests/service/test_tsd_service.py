@@ -21,7 +21,8 @@ def test_identity_carries_the_wing_section():
     assert section_options(delta) == {"thickness_form": None, "thickness_to_chord": 0.0}
     ident = rom_identity("tsd", 8, 8, {"grid_scale": 0.5}, wing=agard)
     assert ident["options"] == {"anchor_k": [0.025, 0.05, 0.1], "grid_scale": 0.5, "supercritical_refine": 1.5,
-                                "thickness_form": "naca65a004", "thickness_to_chord": 0.03994}  # with the defaults
+                                "thickness_form": "naca65a004", "thickness_to_chord": 0.03994,
+                                "validation_band": 3.0}  # with the defaults
     assert rom_identity("tsd", options={"supercritical_refine": None}, wing=agard)["options"][
         "supercritical_refine"] is None  # the requested grid kept: another ROM
     for plain in (None, []):  # both ask for a plain ROM: one identity
@@ -31,7 +32,7 @@ def test_identity_carries_the_wing_section():
         == 0.03
     assert rom_identity("dlm", wing=agard)["options"] == {}
     assert {"grid_scale", "thickness_form", "linearity_check", "tsd_dt", "anchor_k", "anchor_hold",
-            "supercritical_refine"} \
+            "supercritical_refine", "validation_band"} \
         <= allowed_options("tsd")
 
 

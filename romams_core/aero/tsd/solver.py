@@ -319,6 +319,9 @@ class TsdSolver:
             key = self._steady_key(mesh, mach)
             if self._steady is not None and self._steady[0] == key:
                 self.last_mean_flow = self._steady[2]
+                if progress is not None:
+                    progress(share, f"steady mean flow: the converged state of {self.last_mean_flow.steady.steps} "
+                             "steps, reused")
                 return copy.deepcopy(self._steady[1])
             try:
                 flow = self._mean_flow(grid, mach, progress, share)
