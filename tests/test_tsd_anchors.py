@@ -79,3 +79,25 @@ def test_hold_differences_of_a_first_order_lag():
     ratio = (a ** 600 - a ** 2400) / (a ** 1000 - a ** 2400)
     assert diff["60"][0] / diff["100"][0] == pytest.approx(ratio, rel=1e-9)
     assert diff["60"][1] > diff["100"][1] > 0.0
+
+
+def test_anchors_that_contradict_the_records_leave_the_plain_rom(monkeypatch):
+    """When the anchored model misses the validation tolerance (here: the step records' transfer matrix scaled by
+    10, records that contradict the training's), the training keeps the plain ROM with both warnings and its error
+    against the step records over the band, instead of failing."""
+    import romams_core.training_tsd as tt
+
+    mesh = standard_mesh(PLANFORM)
+    eta = mesh.y / PLANFORM.semispan
+    shapes = np.column_stack([0.01 * eta**2, 0.01 * eta * (mesh.x - mesh.x.mean()) / PLANFORM.root_chord])
+    solver = TsdSolver(grid=SMALL, record_threads=2)
+    kw = dict(na=4, nb=4, n_steps=600, nrmse_tol=0.2, anchor_hold=60.0)
+    real = tt.step_anchors
+    monkeypatch.setattr(tt, "step_anchors", lambda *a, **k: 10.0 * real(*a, **k))
+    rom = train_tsd_rom(mesh, shapes, 0.8, solver, anchor_k=[0.1, 0.2], **kw)
+    plain = train_tsd_rom(mesh, shapes, 0.8, solver, anchor_k=None, **kw)
+    assert rom.anchor_k is None and rom.ss.n_states == plain.ss.n_states
+    np.testing.assert_allclose(rom.validation_nrmse, plain.validation_nrmse, rtol=1e-9)
+    assert any(w.startswith("the step records contradict the training records (anchored at k") for w in rom.warnings)
+    assert any(w.startswith("not anchored") for w in rom.warnings)
+    assert 0.8 < rom.anchor_band_error < 1.0  # the plain ROM is 90 % off records scaled by 10
