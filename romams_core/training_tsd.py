@@ -63,7 +63,7 @@ SUPERCRITICAL_WARNING = ("supercritical mean flow (min surface Cp {cp_min:.3f} b
                          "the TSD's first-order differencing of the supersonic region makes the flutter point "
                          "grid-dependent, and coarser grids give higher flutter speeds (AGARD 445.6 at M 0.96: "
                          "-5.5 % with grid_scale 1.5, -5.7 % with 2, docs/transonic.md 7.20); check a margin of "
-                         "about 6 % or train the ROM at grid_scale 1.5")
+                         "about 6 % or train with the default supercritical_refine (1.5), docs/transonic.md 7.21")
 
 
 #: every cell count of a TSD grid is multiplied by this when the mean flow on the requested grid is supercritical
