@@ -138,6 +138,12 @@ def record_error(reference: np.ndarray, predicted: np.ndarray, dt_star: float, b
     return nrmse(reference, predicted) if band is None else band_nrmse(reference, predicted, dt_star, band)
 
 
+def check_validation_band(value: Any, k_max: float) -> None:
+    """Validate ``validation_band``: None (the whole record) or a reduced frequency >= k_max (InputError naming it)."""
+    if value is not None:
+        check_number("validation_band", value, float(k_max), strict=False)
+
+
 #: above this RMS share of the validation GAC outside the validation band, the ROM says so in its warnings
 DISTORTION_WARN = 0.02
 
@@ -206,8 +212,7 @@ def train_rom(
     dt_star = check_dt_star(1.0 / mesh.n_chord if dt_star is None else dt_star)
     if not (math.isfinite(nrmse_tol) and nrmse_tol > 0):
         raise InputError("nrmse_tol", f"must be a finite number > 0, got {nrmse_tol!r}")
-    if validation_band is not None:
-        check_number("validation_band", validation_band, float(k_max), strict=False)
+    check_validation_band(validation_band, k_max)
     if isinstance(reduce_order, str) and reduce_order != "auto":  # before the solver run
         raise InputError("reduce_order", f"must be an integer, 'auto' or None, got {reduce_order!r}")
     m = shapes.shape[1]

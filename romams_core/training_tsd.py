@@ -24,7 +24,7 @@ from romams_core.anchors import STEP_HOLD, anchored, check_anchor_hold, check_an
 from romams_core.arx import band_part
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
-from romams_core.training import TrainedRom, TrainingError, train_rom, with_symmetry
+from romams_core.training import TrainedRom, TrainingError, check_validation_band, train_rom, with_symmetry
 from romams_core.validation import check_number
 
 #: linearity of the GAC under halving the excitation amplitude, at most (relative L2)
@@ -160,8 +160,7 @@ def check_tsd_settings(n_shapes: int | None = None, *, thickness_form: str | Non
         raise InputError("tsd_dt", f"must be in (0, 0.05] (t*; larger steps are unstable), got {tsd_dt!r}")
     check_number("k_max", k_max, 0.0)
     check_number("low_k_corner", low_k_corner, 0.0, strict=False, upper=float(k_max), upper_strict=False)
-    if validation_band is not None:
-        check_number("validation_band", validation_band, float(k_max), strict=False)
+    check_validation_band(validation_band, float(k_max))
     if anchors_on(anchor_k):
         check_anchor_k(cast(Sequence[float], anchor_k), float(k_max))
         check_anchor_hold(anchor_hold)
