@@ -202,8 +202,8 @@ def train_rom(
     ``validation_band`` (>= k_max; None: the whole record): every NRMSE (acceptance, reduction, stabilization)
     counts the records' parts at k <= it only (``arx.band_nrmse``), and the ROM keeps the validation GAC's RMS share
     above it (``validation_distortion``, a warning above ``DISTORTION_WARN``): with an input band-limited to k_max,
-    that share is response no linear model of the input gives (measured: shock motion at M 0.96 on the AGARD grid
-    x 1.5, 4-17 % at k near 14, docs/transonic.md 7.21).
+    that share is response no linear model of the input gives (measured on the TSD at M 0.96 on the AGARD grid
+    x 1.5: 4-17 % near k 14, the same share at half the amplitude; docs/transonic.md 7.21).
     """
     t_start = time.perf_counter()
     mach = check_mach(mach)
@@ -267,7 +267,7 @@ def train_rom(
     if distortion is not None and float(distortion.max()) > DISTORTION_WARN:
         notes.append(f"{100 * float(distortion.max()):.1f} % of the validation GAC's RMS lies above k = "
                      f"{validation_band:g}, outside the excitation band (k <= {k_max:g}): response no linear model of "
-                     "the input gives (shock motion, numerical noise); the validation NRMSE counts k <= "
+                     "the input gives (a nonlinear or numerical response); the validation NRMSE counts k <= "
                      f"{validation_band:g}")
     if progress is not None:
         progress(1.0, f"trained: max validation NRMSE {val.max():.4f}")
