@@ -11,7 +11,7 @@ The ROM the product trains there (``supercritical_refine``, docs/transonic.md 7.
 
     python -m benchmarks.tsd_supercritical_check [--mach 0.96] [--grid-scale 1.5]
 
-About 12 min on 2 cores (two trainings, then the step records).
+About 6 min on 2 cores (two trainings, then the step records).
 """
 
 from __future__ import annotations
