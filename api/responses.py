@@ -171,6 +171,10 @@ class MeanFlow(BaseModel):
     far_field: str | None = Field(default=None, description="the outer faces the TSD solved with: 'wake' (the wake's "
                                   "steady potential on them) or 'plain' (slip walls in steady flow); absent in ROMs "
                                   "trained before 2026-12-05, which had the plain faces")
+    grid: dict[str, Any] | None = Field(default=None, description="the TSD grid it was solved on (cell counts and "
+                                        "extents); a supercritical mean flow trains on the requested grid x "
+                                        "supercritical_refine (docs/transonic.md 7.21); absent in ROMs trained "
+                                        "before 2026-12-07")
 
 
 class JobAccepted(BaseModel):

@@ -85,6 +85,7 @@ def test_mean_flow_endpoints(tiny_tsd_rom, tmp_path):
         body = client.get(f"/api/v1/roms/{rid}/mean-flow").json()
         assert body["mach"] == 0.9 and len(body["cp_upper"]) == len(body["x_over_c"])
         assert body["far_field"] == "wake"  # the outer faces the mean flow was solved with
+        assert body["grid"]["n_chord"] == 20  # the grid it was solved on: the default 40 chord cells x 0.5
         png = client.get(f"/api/v1/roms/{rid}/mean-flow.png")
         assert png.status_code == 200 and png.headers["content-type"] == "image/png" and png.content[:4] == b"\x89PNG"
         missing = client.get("/api/v1/roms/999999/mean-flow")
