@@ -14,7 +14,7 @@ import numpy as np
 from romams_core.errors import InputError
 from romams_core.validation import check_int
 
-__all__ = ["ArxModel", "fit_arx", "arx_simulate", "nrmse", "band_nrmse", "band_part", "regressors"]
+__all__ = ["ArxModel", "fit_arx", "arx_simulate", "nrmse", "band_nrmse", "band_part", "out_of_band_share", "regressors"]
 
 
 @dataclass
