@@ -213,6 +213,12 @@ class MachResult(BaseModel):
     omega_flutter_rad_s: float | None = Field(description="flutter frequency (rad/s)")
     flutter_mode: int | None = Field(description="1-based structural mode the flutter branch starts from")
     sdoff: bool
+    outside_band: bool = Field(False, description="the flutter point's reduced frequency is above the band the ROM "
+                               "was identified in: not a prediction (the message says so)")
+    unstable_above_band_v_m_s: float | None = Field(
+        None, description="constant-density sweep: highest true airspeed (m/s) below the flutter point at which a "
+        "branch was unstable with its reduced frequency above the ROM's band, an instability the ROM shows outside "
+        "its validity and that is not counted as flutter (docs/flutter.md 9.10)")
     sweep: str = Field(description="the sweep used at this Mach (constant-density at Mach 0)")
     altitude_ref_m: float | None = Field(description="ISA reference altitude (m) of rho_ref and a_ref")
     rho_ref_kg_m3: float | None = Field(description="reference density (kg/m^3)")

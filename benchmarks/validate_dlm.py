@@ -38,8 +38,8 @@ PSI = 6894.757
 
 
 def _flutter(modal: Any, rom: Any, mach: float, **kw: Any) -> Any:
-    """Flutter search of a structure's own-mode ROM (zero structural damping)."""
-    return flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, **kw)
+    """Flutter search of a structure's own-mode ROM (zero structural damping; the ROM's band counted, 9.10)."""
+    return flutter_analysis(modal.omega, rom.ss, rom.c_ref, mach, k_band=rom.k_max, **kw)
 
 
 def agard(solvers: list[str]) -> list[dict[str, Any]]:

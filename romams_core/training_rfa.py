@@ -65,6 +65,11 @@ class TrainedRfaRom:
         return self.rfa.n_lags
 
     @property
+    def k_max(self) -> float:
+        """Top of the fitted band: the table's largest reduced frequency (on the semichord)."""
+        return float(self.k_values[-1])
+
+    @property
     def max_fit_error(self) -> float:
         """Worst weighted entry error of the fit over the table."""
         return float(np.max(self.fit_error))
@@ -95,7 +100,7 @@ class TrainedRfaRom:
             "lags": [float(x) for x in self.rfa.lags],
             "n_states": self.ss.n_states,
             "n_states_full": self.n_states_full,
-            "k_max": float(self.k_values[-1]),
+            "k_max": self.k_max,
             "n_k": int(self.k_values.size),
             "fit_error_max": self.max_fit_error,
             "validation_nrmse": [float(x) for x in self.validation_nrmse],

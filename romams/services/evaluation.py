@@ -266,6 +266,8 @@ def result_row(r: Any, env: Any = None, rom_id: int | None = None, rom: Any = No
         "k_flutter": _f(r.k_flutter),
         "flutter_mode": None if r.flutter_mode is None else int(r.flutter_mode),
         "sdoff": bool(r.sdoff),
+        "outside_band": bool(getattr(r, "outside_band", False)),
+        "unstable_above_band_v_m_s": _f(getattr(r, "unstable_above_band_v_m_s", None)),
         "altitude_m": _f(r.altitude_m),
         "sweep": r.sweep,
         "coupling": r.coupling,

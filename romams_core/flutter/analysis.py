@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from romams_core.errors import InputError
+from romams_core.validation import finite_positive
 
 from .batch import run_one, run_searches
 from .continuation import ContinuationTracker, kernel_sweep
@@ -19,8 +20,8 @@ from .inputs import check_flutter_inputs, check_search_options
 from .model import Model, make_model
 from .point import frequency_separation, modal_shares, single_mode_unstable
 from .result import FlutterResult, no_flutter_fields
-from .sweeps import DEFAULT_ALTITUDE_REF_M, Sweep, eas, make_sweep, resolve_reference
-from .tracking import Branches, Path, Solve, Tracker
+from .sweeps import DEFAULT_ALTITUDE_REF_M, ConstantDensity, Sweep, eas, make_sweep, resolve_reference
+from .tracking import G_UNSTABLE, Branches, Path, Solve, Tracker
 
 
 @dataclass(frozen=True)
@@ -37,6 +38,7 @@ class _Search:
     rtol: float
     k_band: float | None
     tracking: str
+    k_gate: float = math.inf  # band above which an unstable branch is not counted (constant density, 9.10)
 
 
 TRACKERS = {"continuation": ContinuationTracker, "eigen": Tracker}  # docs/flutter.md 9.7
@@ -65,9 +67,11 @@ def flutter_analysis(omega: np.ndarray, aero: Any, c_ref: float, mach: float, **
     ``continuation.ContinuationTracker``; the same flutter points) or "auto" (default: ``DEFAULT_TRACKING``); SDOFF
     when the flutter vector's largest modal share is >= sdoff_share AND that mode alone is unstable at q <=
     sdoff_q_factor q_f; k_band (reduced frequency on c_ref / 2): a flutter point above the band the ROM was
-    identified in is flagged ``outside_band``. Reports the TRUE speed ``v_flutter_m_s`` and the equivalent airspeed
-    ``v_eas_m_s``; no flutter in range is a result with flutter_found False. Invalid input raises
-    romams_core.errors.InputError naming the field. The same search as one member of ``flutter_batch``.
+    identified in is flagged ``outside_band``, and in a constant-density sweep an unstable run that stays above
+    the band and ends is not counted as flutter (``band_gate``, ``counted_onset``, ``unstable_above_band_v_m_s``).
+    Reports the TRUE speed ``v_flutter_m_s`` and the equivalent airspeed ``v_eas_m_s``; no flutter in range is a
+    result with flutter_found False. Invalid input raises romams_core.errors.InputError naming the field. The same
+    search as one member of ``flutter_batch``.
     """
     return run_one(flutter_search(prepare_search(omega, aero, c_ref, mach, **options)))
 
@@ -102,22 +106,33 @@ def prepare_search(
                                 c_ref=c_ref, dt_star=model.dt_star, altitude_ref_m=h_ref)
     if tracking not in TRACKERS and tracking != "auto":
         raise InputError("tracking", f"must be one of {sorted(TRACKERS) + ['auto']}, got {tracking!r}")
+    band = None if k_band is None else finite_positive("k_band", k_band)
     return _Search(model, sw, head, int(n_points), float(sdoff_share), float(sdoff_q_factor), track_weight,
-                   float(rtol), None if k_band is None else float(k_band), resolve_tracking(tracking, model, sw))
+                   float(rtol), band, resolve_tracking(tracking, model, sw), band_gate(sw, band))
+
+
+def band_gate(sweep: Sweep, k_band: float | None) -> float:
+    """The band above which an unstable branch is not counted as flutter (docs/flutter.md 9.10): ``k_band`` in a
+    constant-density sweep, whose start at V -> 0 takes every mode above any ROM's band; else none (inf: a
+    constant-speed or matched sweep keeps its reduced frequencies, and a crossing above the band is reported with
+    ``outside_band``)."""
+    return math.inf if k_band is None or not isinstance(sweep, ConstantDensity) else k_band
 
 
 def flutter_search(se: _Search) -> Solve[FlutterResult]:
     """The search (a generator of eigen requests, batch.py) -> FlutterResult."""
     sw, om = se.sweep, se.model.omega
-    tracker = TRACKERS[se.tracking](se.model, sw, se.track_weight)
+    tracker = TRACKERS[se.tracking](se.model, sw, se.track_weight, se.k_gate)
     path = yield from tracker.track_search(sw.grid(se.n_points))
+    cands = counted_onset(tracker, path)
+    above = _unstable_above_band(tracker, path)
     head: dict[str, Any] = dict(se.head, **_vg_data(sw, path), modal_share=np.zeros(om.size),
-                                lag_root_flagged=path.lag)
+                                lag_root_flagged=path.lag, unstable_above_band_v_m_s=above)
     if path.first_unstable is None:
-        msg = f"no flutter up to {sw.range_text()}{_lag_note(path)}"
+        msg = f"no flutter up to {sw.range_text()}{_lag_note(path)}{_above_note(above, se.k_gate)}"
         head["curves"] = yield from vg_curves(tracker, path, None)
         return FlutterResult(**no_flutter_fields(), message=msg, **head)
-    br = yield from make_bracket(tracker, path)
+    br = yield from make_bracket(tracker, path, cands)
     p_f, branch, st_f = yield from refine_crossing(tracker, br, se.rtol)
     omega_path = np.array([st.lam.imag for st in path.states[1:path.first_unstable]] + [st_f.lam.imag])
     # unstable from the start: growth near q = 0 is too small to see; check at least 1/12 of the natural range
@@ -126,7 +141,7 @@ def flutter_search(se: _Search) -> Solve[FlutterResult]:
                                       p_chk_min)
     if path.first_unstable == 1 and p_f == br.lo_p:
         point["message"] = "structural branch already unstable at the start of the sweep; " + point["message"]
-    point["message"] += _lag_note(path)
+    point["message"] += _lag_note(path) + _above_note(above, se.k_gate)
     if se.k_band is not None and point["k_flutter"] > se.k_band:
         point["outside_band"] = True
         point["message"] += (f"; WARNING: k_f = {point['k_flutter']:.3g} is above the band the ROM was identified "
@@ -135,6 +150,50 @@ def flutter_search(se: _Search) -> Solve[FlutterResult]:
     head["modal_share"] = point.pop("modal_share")
     head["curves"] = yield from vg_curves(tracker, path, (p_f, st_f))  # plot only: after the flutter point
     return FlutterResult(**point, **head)
+
+
+def counted_onset(tracker: Tracker, path: Path) -> np.ndarray | None:
+    """With a band gate: the candidate branches [k] of the first crossing that counts, and ``path.first_unstable``
+    moved to its onset (None without a gate: the tracker's first unstable point and its unstable branches).
+
+    An unstable run of a branch (its consecutive unstable path points) counts when it reaches into the band or
+    lasts to the end of the sweep; it then counts from its onset, above the band or not (the lower speed: a
+    number never on the unsafe side of the ungated search). A run that lies above the band and ends inside the
+    sweep is the ROM outside its validity (docs/flutter.md 9.10) and is not counted.
+    """
+    if math.isinf(tracker.k_gate):
+        return None
+    i = path.first_unstable
+    if i is None:  # nothing in the band: a run still unstable at the sweep's end counts
+        i = len(path.p) - 1
+        counted = path.g(i) > G_UNSTABLE
+        if i < 1 or not counted.any():
+            return None
+    else:
+        counted = tracker.unstable(path.p[i], path.states[i])
+    onset = np.full(counted.size, i)
+    for j in np.flatnonzero(counted):
+        while onset[j] > 1 and path.g(int(onset[j]) - 1)[j] > G_UNSTABLE:
+            onset[j] -= 1
+    path.first_unstable = int(onset[counted].min())
+    return counted & (onset == path.first_unstable)
+
+
+def _unstable_above_band(tracker: Tracker, path: Path) -> float | None:
+    """Highest true speed (m/s) before the first counted unstable point (or over the path) at which a branch was
+    unstable above the band gate, an instability not counted as flutter; None when none was."""
+    if math.isinf(tracker.k_gate):
+        return None
+    end = len(path.p) if path.first_unstable is None else path.first_unstable
+    hits = [p for p, st in zip(path.p[1:end], path.states[1:end], strict=True)
+            if np.any((2.0 * st.lam.real / np.abs(st.lam) > G_UNSTABLE) & ~tracker.in_band(p, st))]
+    return None if not hits else float(tracker.sweep.cond(np.array([max(hits)]))[0][0])
+
+
+def _above_note(v_above: float | None, k_gate: float) -> str:
+    """Message suffix when unstable branches above the band were not counted."""
+    return ("" if v_above is None else f"; NOTE: a branch was unstable at V <= {v_above:.6g} m/s with its reduced "
+            f"frequency above the ROM's band (k > {k_gate:g}), where the ROM is not valid: not counted as flutter")
 
 
 def _lag_note(path: Path) -> str:
@@ -167,7 +226,8 @@ def _flutter_point(tracker: Tracker, p_f: float, branch: int, st_f: Branches, om
     single = False
     if energy_share >= sdoff_share:
         p_chk = max(sw.p_check(p_f, q_f, sdoff_q_factor), p_chk_min)
-        single = yield from single_mode_unstable(m, sw, int(np.argmax(share)), p_chk, tracker.weight)
+        single = yield from single_mode_unstable(m, sw, int(np.argmax(share)), p_chk, tracker.weight,
+                                                 k_gate=tracker.k_gate)
     lam_f = complex(st_f.lam[branch])
     omega_f = abs(lam_f.imag)
     alt = sw.altitude(np.array([max(p_f, 0.0)]))[0]

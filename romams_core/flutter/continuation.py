@@ -167,7 +167,7 @@ class ContinuationTracker(Tracker):
         tests); the steps it hands back are taken by the full spectrum here, as ``_continue_to`` takes them."""
         m, sw = self.m, self.sweep
         k = m.k
-        consts = np.concatenate([[PRED_TOL, PRED_TOL_POST, GROW], _step_consts()])
+        consts = np.concatenate([[PRED_TOL, PRED_TOL_POST, GROW], _step_consts(), [self.k_gate]])
         targets = np.asarray(todo, float)
         marks: list[int] = []
         it, fails = 0, 0
@@ -268,7 +268,7 @@ class ContinuationTracker(Tracker):
         path.p.append(p1)
         path.x.append(x1)
         path.states.append(new)
-        if careful and np.any(path.g(-1) > G_UNSTABLE):
+        if careful and np.any(self.unstable(p1, new)):
             path.first_unstable = len(path.p) - 1
 
     def _predict(self, path: Path, x1: float) -> np.ndarray:

@@ -98,10 +98,11 @@ class Bracket:
         return complex(a + (p - self.lo_p) / (self.hi_p - self.lo_p) * (b - a))
 
 
-def make_bracket(tracker: Tracker, path: Path) -> Solve[Bracket]:
+def make_bracket(tracker: Tracker, path: Path, cands: np.ndarray | None = None) -> Solve[Bracket]:
     """Bracket of the first crossing: the path's first unstable point and the point before it.
 
-    The candidates are the branches unstable at that point (none was unstable before). A crossing before the
+    The candidates are the branches unstable at that point (none was unstable before), or ``cands`` [k] where the
+    band gate chose them (``analysis.counted_onset``). A crossing before the
     first point after q = 0 is bracketed from the start state just after q = 0 (``Sweep.start_state_point``;
     a branch of zero structural damping has Re(s) = 0 exactly at q = 0); every branch with Re(s) > 0 there is
     a candidate too, unstable from the start of the sweep and reported there.
@@ -109,13 +110,14 @@ def make_bracket(tracker: Tracker, path: Path) -> Solve[Bracket]:
     i = path.first_unstable
     assert i is not None and i >= 1
     hi_p, hi_state = path.p[i], path.states[i]
-    unstable = path.g(i) > G_UNSTABLE
+    unstable = path.g(i) > G_UNSTABLE if cands is None else cands
     if i == 1:
         sw = tracker.sweep
         lo_p = min(sw.start_state_point(), 0.5 * (sw.p_start + hi_p))
         e_lo = yield from tracker.eig(np.array([lo_p]))
         lo_state = yield from tracker.step(tracker.start(), sw.p_start, lo_p, e_lo)
-        unstable |= lo_state.lam.real > 0
+        if cands is None:
+            unstable |= lo_state.lam.real > 0
     else:
         lo_p, lo_state = path.p[i - 1], path.states[i - 1]
     return Bracket(lo_p, lo_state, hi_p, hi_state, [int(j) for j in np.nonzero(unstable)[0]])

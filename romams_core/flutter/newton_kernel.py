@@ -334,7 +334,8 @@ def segment(todo: np.ndarray, it: int, h: float, fails: int, p_last: float, xh: 
     [3, k] (oldest first), the last state's vectors and content, the path length and whether the first unstable
     point is still ahead (``careful``). ``h``: the step length; ``fails``: full-spectrum steps in a row toward the
     current target; ``h_min`` = H_MIN of the natural range; ``consts`` = (PRED_TOL, PRED_TOL_POST, GROW, SAME_ROOT,
-    MAC_STEP, CONTENT_JUMP, CONTENT_AWAY, VEER_DROP, CONTENT_MIN, G_UNSTABLE, HUMP_ERR, HUMP_FLOOR).
+    MAC_STEP, CONTENT_JUMP, CONTENT_AWAY, VEER_DROP, CONTENT_MIN, G_UNSTABLE, HUMP_ERR, HUMP_FLOOR, k_gate): an
+    unstable branch marks the first unstable point only at a reduced frequency <= k_gate (``Tracker.unstable``).
 
     Returns (how it ended, the current target index, h, fails, p1 of the step the full spectrum must take, the
     accepted points' p [n], roots [n, k], vectors [n, 2k, k], contents [n, k], the target index each point
@@ -347,12 +348,13 @@ def segment(todo: np.ndarray, it: int, h: float, fails: int, p_last: float, xh: 
     cont_o = np.empty((room, k))
     tgt = np.full(room, -1, np.int64)
     step_c = np.empty(10)
-    step_c[1:] = consts[3:]
+    step_c[1:] = consts[3:12]
     xh = xh.copy()
     lamh = lamh.copy()
     n = 0
     first = -1
     g_unstable = consts[9]
+    k_gate = consts[12]
     while it < todo.size:
         p_t = todo[it]
         while p_last < p_t:
@@ -384,7 +386,7 @@ def segment(todo: np.ndarray, it: int, h: float, fails: int, p_last: float, xh: 
                 p_last = p1
                 if careful:
                     for j in range(k):
-                        if 2.0 * lam[j].real / abs(lam[j]) > g_unstable:
+                        if 2.0 * lam[j].real / abs(lam[j]) > g_unstable and abs(lam[j].imag) * 0.5 <= k_gate * vc:
                             careful = False
                     if not careful:
                         first = n
@@ -502,10 +504,10 @@ def warm_up() -> None:
             0.02 * omega, omega**2, omega, np.array([1.0 + 0.0j, 0.5 + 0.5j]))
     lam = np.array([-0.1 + 10.0j, -0.3 + 30.0j])
     vec = np.ascontiguousarray(np.vstack([np.eye(k), np.eye(k)]) + 0j)
-    consts = np.array([0.05, 0.3, 8.0, 1e-6, 0.9, 0.1, 0.5, 0.002, 0.1, 1e-9, 0.5, 1e-6])
+    consts = np.array([0.05, 0.3, 8.0, 1e-6, 0.9, 0.1, 0.5, 0.002, 0.1, 1e-9, 0.5, 1e-6, np.inf])
     segment(np.array([1.0, 2.0]), 0, 0.5, 0, 0.0, np.array([0.0, 0.0, 0.0]), np.vstack([lam, lam, lam]), 1, vec,
             np.ones(k), True, 1, True, *args, CONSTANT_SPEED, 100.0, 1.0, 1e-4, 1e-3, 4, consts, 256)
     newton_point(np.array([0.0]), lam[None, :].copy(), 1.0, 100.0, 1.0, vec, np.ones(k), True, *args, True, False,
-                 np.concatenate([consts[:1], consts[3:]]))
+                 np.concatenate([consts[:1], consts[3:12]]))
     roots_vectors(lam.copy(), omega.copy(), np.full(k, 100.0), np.ones(k), np.ones(k, np.bool_), *args, 0.1, 30)
     vectors(lam.copy(), np.full(k, 100.0), np.ones(k), *args, 0.1)

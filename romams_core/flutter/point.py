@@ -28,15 +28,17 @@ def frequency_separation(omega_path: np.ndarray, branch: int) -> float:
     return float(np.min(np.abs(others - omega_path[:, [branch]]) / np.where(wb > 0, wb, 1.0)[:, None]))
 
 
-def single_mode_unstable(m: Model, sweep: Sweep, j: int, p_end: float, weight: float, n: int = 6) -> Solve[bool]:
+def single_mode_unstable(m: Model, sweep: Sweep, j: int, p_end: float, weight: float, n: int = 6,
+                         k_gate: float = math.inf) -> Solve[bool]:
     """True when structural mode j alone (diagonal aero term only) has an unstable oscillatory root at some p <= p_end.
 
-    A zero-frequency (divergence) root of the single mode does not count: SDOFF is a dynamic instability.
+    A zero-frequency (divergence) root of the single mode does not count: SDOFF is a dynamic instability. Nor does
+    a root above the band k_gate (``Tracker.unstable``).
     """
     if m.k == 1:
         return True
     sub = m.submodel(j)
-    tr = Tracker(sub, sweep, weight)
+    tr = Tracker(sub, sweep, weight, k_gate)
     # fast path: no unstable oscillatory root at all at p_end -> stable (a single-mode hump that returns
     # to stability before p_end would be missed; such a hump is not flutter-critical at q_f anyway)
     lam_end = (yield from tr.eig(np.array([p_end]), vectors=False)).lam[0]
@@ -48,7 +50,8 @@ def single_mode_unstable(m: Model, sweep: Sweep, j: int, p_end: float, weight: f
     for i in range(grid.size):  # the grid points in turn (no pre-crossing refinement)
         state = yield from tr.step(state, p_prev, float(grid[i]), eg.point(i))
         s = state.lam[0]
-        if s.real > 1e-9 * abs(s) and abs(s.imag) > 0.05 * sub.omega[0]:  # oscillatory (not divergence)
+        oscillatory = abs(s.imag) > 0.05 * sub.omega[0]  # not divergence
+        if s.real > 1e-9 * abs(s) and oscillatory and tr.in_band(float(grid[i]), state)[0]:
             return True
         p_prev = float(grid[i])
     return False

@@ -36,9 +36,12 @@ class FlutterResult:
     the flutter eigenvector. ``lag_root_flagged``: True when a tracked branch had to be continued on an
     aerodynamic lag root because no structural candidate was left (never seen in practice; the message says so).
     ``outside_band``: True when the flutter point's reduced frequency is above the band the ROM was identified
-    in (``k_band`` of flutter_analysis); the message then carries a warning. ``curves``: the plot's V-g / V-f
-    curves from q = 0 (wind-off frequencies first), with every tracked point and extra points near each crossing
-    (``curves.VgCurves``; None in results stored before they existed).
+    in (``k_band`` of flutter_analysis); the message then carries a warning. ``unstable_above_band_v_m_s``: in a
+    constant-density sweep with ``k_band``, an unstable run of a branch that stays above the band and ends is not
+    counted as flutter (the sweep's start at V -> 0 is outside every ROM's band, docs/flutter.md 9.10); this is
+    the highest speed of such runs before the flutter point (None: none), and the message notes it. ``curves``:
+    the plot's V-g / V-f curves from q = 0 (wind-off frequencies first), with every tracked point and extra
+    points near each crossing (``curves.VgCurves``; None in results stored before they existed).
     """
 
     mach: float
@@ -75,6 +78,8 @@ class FlutterResult:
     v_eas: np.ndarray = field(default_factory=lambda: np.zeros(0))  # [nv] m/s, sqrt(2 q / rho_0)
     lag_root_flagged: bool = False  # a branch was continued on an aero lag root (no structural candidate)
     outside_band: bool = False  # k_flutter above the ROM's identified band (k_band): the ROM is not valid there
+    unstable_above_band_v_m_s: float | None = None  # constant density: highest V below the flutter point where a
+    # branch was unstable above the band (k > k_band) and so not counted (docs/flutter.md 9.10)
     curves: VgCurves | None = None  # plot-only V-g / V-f curves from q = 0, refined near crossings (curves.py)
 
 

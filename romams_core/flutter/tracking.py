@@ -241,6 +241,16 @@ class Path:
         return 2.0 * lam.real / np.abs(lam)
 
 
+def in_band(lam: np.ndarray, v: float, c_ref: float, k_gate: float) -> np.ndarray:
+    """Branches [k] (eigenvalues lam, rad/s, at true speed v m/s) whose reduced frequency |Im s| (c_ref / 2) / v is
+    <= k_gate (inf: all of them)."""
+    if math.isinf(k_gate):
+        return np.ones(lam.shape, bool)
+    return np.abs(lam.imag) * 0.5 * c_ref <= k_gate * v
+
+
+
+
 class Tracker:
     """Continuation of the structural branches along a sweep (module docstring).
 
@@ -248,10 +258,21 @@ class Tracker:
     (``batch.run_searches`` answers the requests of many searches with one batched eigen-solve).
     """
 
-    def __init__(self, model: Model, sweep: Sweep, weight: float):
+    def __init__(self, model: Model, sweep: Sweep, weight: float, k_gate: float = math.inf):
         self.m = model
         self.sweep = sweep
         self.weight = weight
+        self.k_gate = float(k_gate)  # band above which an unstable branch is not counted (``unstable``)
+
+    def in_band(self, p: float, state: Branches) -> np.ndarray:
+        """``in_band`` of the branches of ``state`` at the sweep parameter p [k]."""
+        v = float(self.sweep.cond(np.array([p]))[0][0]) if math.isfinite(self.k_gate) else 1.0
+        return in_band(state.lam, v, self.m.c_ref, self.k_gate)
+
+    def unstable(self, p: float, state: Branches) -> np.ndarray:
+        """Branches of ``state`` at the sweep parameter p that count as unstable [k]: g > ``G_UNSTABLE`` and in the
+        band (docs/flutter.md 9.10)."""
+        return (2.0 * state.lam.real / np.abs(state.lam) > G_UNSTABLE) & self.in_band(p, state)
 
     def start(self) -> Branches:
         """The branch state at p_start (q = 0): the in-vacuo poles."""
@@ -331,5 +352,5 @@ class Tracker:
         path.p.append(p1)
         path.x.append(x1)
         path.states.append(new)
-        if careful and np.any(path.g(-1) > G_UNSTABLE):
+        if careful and np.any(self.unstable(p1, new)):
             path.first_unstable = len(path.p) - 1
