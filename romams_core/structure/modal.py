@@ -32,8 +32,10 @@ from romams_core.structure.dkt import (
     triangle_geometry,
 )
 from romams_core.structure.membrane import membrane_mass, membrane_stiffness
+from romams_core.structure.plate_cache import topology
 from romams_core.structure.plate_mesh import PlateMesh, locate, plate_mesh
 from romams_core.structure.plate_parts import beam_parts, lumped_mass_part, node_dofs
+from romams_core.structure.sparse_pattern import FreePart
 from romams_core.structure.stiffener import SHELL_DOFS
 from romams_core.wing import BeamStructure, PlateStructure, WingDefinition
 
@@ -73,6 +75,7 @@ class FEModel:
     interp: sp.csr_matrix  # [N_std, dofs_per_node P] map from DOFs to w on the standard mesh
     triangles: np.ndarray  # [E, 3] (empty for beams)
     dofs_per_node: int = 3
+    free_part: FreePart | None = None  # K and M's free-free layout (plate models; used while ``free`` is its own)
 
 
 def _assemble(conn: np.ndarray, ke: np.ndarray, n_dof: int) -> sp.csc_matrix:
@@ -139,7 +142,8 @@ def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None
                 membrane: bool | None = None) -> FEModel:
     """Assemble the plate (+ beam + lumped mass) FE model with a clamped root.
 
-    membrane: give the plate membrane DOFs (flat shell); None: exactly when the beam is eccentric.
+    membrane: give the plate membrane DOFs (flat shell); None: exactly when the beam is eccentric. K and M are
+    summed into the sparse pattern ``plate_cache`` keeps per mesh topology.
     """
     beam = s.beam
     if membrane is None:
@@ -147,6 +151,25 @@ def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None
     if not membrane and beam is not None and beam.placement == "eccentric":
         raise InputError("structure.beam.placement", "an eccentric beam needs the plate's membrane DOFs")
     stride = SHELL_DOFS if membrane else 3
+    pm, k_parts, m_parts, mass = plate_groups(planform, s, stride)
+    n_dof = stride * pm.n_nodes
+    root = pm.node(np.arange(pm.n_chord + 1), 0)
+    clamped = np.zeros(n_dof, dtype=bool)
+    clamped[node_dofs(root[None], stride, 0, stride).ravel()] = True
+    free = np.flatnonzero(~clamped)
+    mesh = mesh if mesh is not None else standard_mesh(planform)
+    K, M, free_part = _assemble_pair(k_parts, m_parts, n_dof, free)
+    return FEModel(K=K, M=M, free=free, xy=pm.xy, mass_kg=mass,
+                   interp=plate_interpolation(pm, planform, mesh.x, mesh.y, stride), triangles=pm.triangles,
+                   dofs_per_node=stride, free_part=free_part)
+
+
+def plate_groups(planform: Planform, s: PlateStructure, stride: int
+                 ) -> tuple[PlateMesh, list[tuple[np.ndarray, np.ndarray]], list[tuple[np.ndarray, np.ndarray]], float]:
+    """(FE mesh, stiffness groups, mass groups, structural mass kg) of a plate structure with ``stride`` DOFs per
+    node (3 bending, 6 flat shell); groups are (connectivity [E, n], element matrices [E, n, n]), the mass groups
+    starting with the stiffness groups' connectivities (the same arrays) and ending with the lumped mass."""
+    beam = s.beam
     pm = plate_mesh(planform, s.fe_n_chord, s.fe_n_span, None if beam is None else (beam.root_position,
                                                                                     beam.tip_position))
     tri = pm.triangles
@@ -158,7 +181,7 @@ def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None
     conn = node_dofs(tri, stride)
     k_parts = [(conn, dkt_stiffness(exy, (h**3 / 12.0)[:, None, None] * q[None]))]
     m_parts = [(conn, cubic_mass(exy, rho_h))]
-    if membrane:
+    if stride != 3:
         mconn = node_dofs(tri, stride, 3)
         k_parts.append((mconn, membrane_stiffness(exy, h[:, None, None] * q[None])))
         m_parts.append((mconn, membrane_mass(exy, rho_h)))
@@ -174,15 +197,26 @@ def plate_model(planform: Planform, s: PlateStructure, mesh: StandardMesh | None
     if s.lumped_mass is not None and s.lumped_mass.mass > 0.0:
         m_parts.append(lumped_mass_part(pm, s.lumped_mass.mass, s.lumped_mass.span_fraction, stride))
         mass += float(s.lumped_mass.mass)
-    n_dof = stride * pm.n_nodes
-    root = pm.node(np.arange(pm.n_chord + 1), 0)
-    clamped = np.zeros(n_dof, dtype=bool)
-    clamped[node_dofs(root[None], stride, 0, stride).ravel()] = True
-    mesh = mesh if mesh is not None else standard_mesh(planform)
-    K, M = _assemble_many(k_parts, n_dof), _assemble_many(m_parts, n_dof)
-    return FEModel(K=K, M=M, free=np.flatnonzero(~clamped), xy=pm.xy, mass_kg=mass,
-                   interp=plate_interpolation(pm, planform, mesh.x, mesh.y, stride), triangles=tri,
-                   dofs_per_node=stride)
+    return pm, k_parts, m_parts, mass
+
+
+def _assemble_pair(k_parts: list[tuple[np.ndarray, np.ndarray]], m_parts: list[tuple[np.ndarray, np.ndarray]],
+                   n_dof: int, free: np.ndarray) -> tuple[sp.csc_matrix, sp.csc_matrix, FreePart | None]:
+    """(K, M, their free-free layout) on the cached pattern of the stiffness groups (``plate_cache``); a further
+    mass group (the lumped mass) adds its nonzero entries, and one outside the pattern (on a DOF pair no element
+    joins) gives both matrices by the general assembly."""
+    top = topology([c for c, _ in k_parts], n_dof, free)
+    pat = top.pattern
+    extra = [pat.place(c, v) for c, v in m_parts[len(k_parts):]]
+    same = len(m_parts) >= len(k_parts) and all(
+        mc is kc for (mc, _), (kc, _) in zip(m_parts[:len(k_parts)], k_parts, strict=True))
+    placed = [e for e in extra if e is not None]
+    if not same or len(placed) < len(extra):
+        return _assemble_many(k_parts, n_dof), _assemble_many(m_parts, n_dof), None
+    K = pat.matrix(list(top.positions), [v for _, v in k_parts])
+    M = pat.matrix(list(top.positions) + [p for p, _ in placed],
+                   [v for _, v in m_parts[:len(k_parts)]] + [v for _, v in placed])
+    return K, M, top.free_part
 
 
 def plate_interpolation(pm: PlateMesh, planform: Planform, x: np.ndarray, y: np.ndarray,
@@ -262,18 +296,27 @@ def _stiffness_inverse(k: sp.spmatrix) -> LinearOperator | None:
         return None
     ab = np.zeros((u + 1, n))
     ab[u + r - col, col] = v
+    return _banded_inverse(ab)
+
+
+def _banded_inverse(ab: np.ndarray) -> LinearOperator | None:
+    """K^-1 as an operator from K's upper band ab [u + 1, n] (banded Cholesky); None if K is not positive
+    definite (eigsh then factors K - sigma M itself)."""
+    n = ab.shape[1]
     try:
         cb = cholesky_banded(ab, lower=False, check_finite=False)
     except np.linalg.LinAlgError:
-        return None  # not positive definite: let eigsh factor K - sigma M itself
+        return None
     return LinearOperator((n, n), matvec=lambda x: cho_solve_banded((cb, False), x, check_finite=False), dtype=float)
 
 
 def solve_modes(model: FEModel, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     """Lowest eigenpairs: omega [k] (rad/s) and mass-normalized full-DOF modes [n_dof, k] (clamped DOFs zero)."""
     f = model.free
-    kff = model.K[f][:, f]
-    mff = model.M[f][:, f]
+    fp = model.free_part
+    fast = fp is not None and np.array_equal(fp.free, f)
+    kff = fp.block(model.K) if fp is not None and fast else model.K[f][:, f]
+    mff = fp.block(model.M) if fp is not None and fast else model.M[f][:, f]
     if not 1 <= n_modes < f.size:
         raise InputError("n_modes", f"must be in [1, {f.size - 1}], got {n_modes}")
     if f.size <= 60:
@@ -282,7 +325,9 @@ def solve_modes(model: FEModel, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
         # a fixed start vector: ARPACK's default is random, which makes repeated analyses of one structure differ
         # at round-off (the baseline compared with itself must give a zero envelope margin, everywhere)
         v0 = np.random.default_rng(0).standard_normal(f.size)
-        lam, vec = eigsh(kff, k=n_modes, M=mff, sigma=0.0, which="LM", OPinv=_stiffness_inverse(kff), v0=v0)
+        band = fp.banded_upper(kff) if fp is not None and fast and fp.band <= f.size // 4 else None
+        op = _stiffness_inverse(kff) if band is None else _banded_inverse(band)
+        lam, vec = eigsh(kff, k=n_modes, M=mff, sigma=0.0, which="LM", OPinv=op, v0=v0)
     order = np.argsort(lam)
     lam, vec = lam[order], vec[:, order]
     gm = np.einsum("ik,ik->k", vec, mff @ vec)
