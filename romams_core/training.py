@@ -26,39 +26,22 @@ from romams_core.aero.protocol import (
     check_shapes,
     image_sign,
 )
-from romams_core.arx import ArxModel, arx_simulate, band_nrmse, fit_arx, nrmse, out_of_band_share
+from romams_core.arx import ArxModel, out_of_band_share
+from romams_core.arx_identification import (
+    Fit,
+    Records,
+    TrainingError,
+    identify,
+    minimal_arx_realization,
+    record_error,
+)
 from romams_core.errors import InputError
 from romams_core.mesh import StandardMesh
-from romams_core.realization import minimal_realization, real_modal_form
 from romams_core.signals import excitation_signals
-from romams_core.statespace import (
-    DiscreteSS,
-    arx_to_ss,
-    balanced_models,
-    balanced_truncation,
-    refit_output_map,
-    reflect_unstable_poles,
-)
+from romams_core.statespace import DiscreteSS, arx_to_ss
 from romams_core.validation import check_number
 
 __all__ = ["TrainedRom", "TrainingError", "train_rom", "default_n_steps", "with_minimal_realization"]
-
-#: Largest RMS difference between the minimal and the full realization's validation outputs, as a fraction of the
-#: largest output RMS of the records (:func:`minimal_arx_realization`; measured 1e-6 on TSD ROMs).
-MINIMAL_MATCH_TOL = 1e-4
-#: Condition number of the modal transformation above which the minimal realization stays in staircase coordinates.
-MODAL_COND_MAX = 1e10
-#: AR-only Tikhonov levels tried, in order, when the plain least-squares ARX fit is unstable.
-_AR_RIDGES = (1e-12, 1e-11, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6)
-
-
-class TrainingError(RuntimeError):
-    """Identification failed (tolerance not met or unstable model); ``outputs`` lists the offending outputs."""
-
-    def __init__(self, message: str, outputs: list[int] | None = None) -> None:
-        super().__init__(message)
-        self.outputs = list(outputs or [])
-
 
 @dataclass
 class TrainedRom:
@@ -130,12 +113,6 @@ class TrainedRom:
             **({"validation_distortion": [float(x) for x in self.validation_distortion]}
                if self.validation_distortion is not None else {}),
         }
-
-
-def record_error(reference: np.ndarray, predicted: np.ndarray, dt_star: float, band: float | None) -> np.ndarray:
-    """NRMSE [m] of predicted against reference records [T, m]: of the whole records, or of their parts at
-    k <= ``band`` (``arx.band_nrmse``)."""
-    return nrmse(reference, predicted) if band is None else band_nrmse(reference, predicted, dt_star, band)
 
 
 def check_validation_band(value: Any, k_max: float) -> None:
@@ -223,48 +200,21 @@ def train_rom(
     exc = excitation_signals(shapes, mesh.c_ref, int(n_steps), dt_star, k_max=k_max, seed=seed,
                              displacement_fraction=displacement_fraction, low_k_corner=low_k_corner)
 
-    def _solver_progress(frac: float, msg: str) -> None:
-        if progress is not None:
-            progress(0.9 * frac, msg)
-
     t_solver = time.perf_counter()
-    both = _Records(exc.train, exc.validation, continued=not isinstance(solver, RecordsSolver))
-    if isinstance(solver, RecordsSolver):  # independent records from rest, run side by side by the solver
-        out = np.vstack(solver.simulate_records(mesh, shapes, [exc.train, exc.validation], mach, dt_star,
-                                                progress=_solver_progress))
-    else:
-        out = solver.simulate(mesh, shapes, both.signals, mach, dt_star, progress=_solver_progress)
-    gac = np.asarray(out, dtype=float)
+    both = Records(exc.train, exc.validation, continued=not isinstance(solver, RecordsSolver))
+    gac = _run_records(solver, mesh, shapes, both, mach, dt_star, progress)
     solver_seconds = time.perf_counter() - t_solver
-    if gac.shape != both.signals.shape or not np.all(np.isfinite(gac)):
-        raise TrainingError(f"solver {solver.name!r} returned GAC of shape {gac.shape} (expected {both.signals.shape}) "
-                            "or non-finite values")
     if progress is not None:
         progress(0.92, "identifying ARX model")
     n = int(n_steps)
-    fits: list[_Fit] = []
-    for na_i, nb_i in [(na, nb), *[(int(a), int(b)) for a, b in order_fallbacks]]:  # a few candidate orders
-        fit = _identify(exc.train, gac, both, n, m, na_i, nb_i, ridge, dt_star, k_max, reduce_order, hsv_tol,
-                        reduce_tol, progress, validation_band)
-        fits.append(fit)
-        if np.all(fit.val <= nrmse_tol):
-            break
-    fit = min(fits, key=lambda f: float(np.max(f.val)))
+    orders = [(na, nb), *[(int(a), int(b)) for a, b in order_fallbacks]]
+    fit = _fit_orders(orders, nrmse_tol, lambda a, b: identify(
+        exc.train, gac, both, n, m, a, b, ridge, dt_star, k_max, reduce_order, hsv_tol, reduce_tol, progress,
+        validation_band))
     arx, full, ss, hsv, pred, val = fit.arx, fit.full, fit.ss, fit.hsv, fit.pred, fit.val
     na, nb, notes = fit.na, fit.nb, fit.notes
-    bad = [int(i) for i in np.flatnonzero(~(val <= nrmse_tol))]
-    if bad:
-        detail = ", ".join(f"output {i}: {val[i]:.4f}" for i in bad)
-        raise TrainingError(f"validation NRMSE above nrmse_tol = {nrmse_tol:g} for {detail} "
-                            f"(states {ss.n_states}, na = {na}, nb = {nb}"
-                            f"{'; best of orders ' + str([(f.na, f.nb) for f in fits]) if len(fits) > 1 else ''})",
-                            outputs=bad)
-    if len(fits) > 1:
-        failed = ", ".join(f"{f.na}/{f.nb} ({100 * float(np.max(f.val)):.2f} %)" for f in fits if f is not fit)
-        notes.append(f"ARX orders {failed} missed the validation tolerance; refitted with {na}/{nb} on the same "
-                     "records")
     distortion = None if validation_band is None else out_of_band_share(gac[n:], dt_star, validation_band)
-    if distortion is not None and float(distortion.max()) > DISTORTION_WARN:
+    if distortion is not None and validation_band is not None and float(distortion.max()) > DISTORTION_WARN:
         notes.append(f"{100 * float(distortion.max()):.1f} % of the validation GAC's RMS lies above k = "
                      f"{validation_band:g}, outside the excitation band (k <= {k_max:g}): response no linear model of "
                      "the input gives (a nonlinear or numerical response); the validation NRMSE counts k <= "
@@ -306,6 +256,50 @@ def train_rom(
     )
 
 
+def _run_records(solver: UnsteadySolver, mesh: StandardMesh, shapes: np.ndarray, both: Records, mach: float,
+                 dt_star: float, progress: ProgressFn | None) -> np.ndarray:
+    """The solver's GAC [T_train + T_val, m] on both records (one continued run, or two from rest side by side by a
+    ``RecordsSolver``); TrainingError when its shape is wrong or a value is not finite."""
+
+    def solver_progress(frac: float, msg: str) -> None:
+        if progress is not None:
+            progress(0.9 * frac, msg)
+
+    if isinstance(solver, RecordsSolver):
+        out = np.vstack(solver.simulate_records(mesh, shapes, [both.train, both.validation], mach, dt_star,
+                                                progress=solver_progress))
+    else:
+        out = solver.simulate(mesh, shapes, both.signals, mach, dt_star, progress=solver_progress)
+    gac = np.asarray(out, dtype=float)
+    if gac.shape != both.signals.shape or not np.all(np.isfinite(gac)):
+        raise TrainingError(f"solver {solver.name!r} returned GAC of shape {gac.shape} (expected {both.signals.shape}) "
+                            "or non-finite values")
+    return gac
+
+
+def _fit_orders(orders: list[tuple[int, int]], nrmse_tol: float, fit_one: Callable[[int, int], Fit]) -> Fit:
+    """The first fit of ``orders`` (na, nb) in turn whose validation NRMSE meets nrmse_tol (with a note when it is
+    not the first); TrainingError naming the outputs of the best one when none does."""
+    fits: list[Fit] = []
+    for na, nb in orders:  # a few candidate orders
+        fits.append(fit_one(na, nb))
+        if np.all(fits[-1].val <= nrmse_tol):
+            break
+    fit = min(fits, key=lambda f: float(np.max(f.val)))
+    bad = [int(i) for i in np.flatnonzero(~(fit.val <= nrmse_tol))]
+    if bad:
+        detail = ", ".join(f"output {i}: {fit.val[i]:.4f}" for i in bad)
+        raise TrainingError(f"validation NRMSE above nrmse_tol = {nrmse_tol:g} for {detail} "
+                            f"(states {fit.ss.n_states}, na = {fit.na}, nb = {fit.nb}"
+                            f"{'; best of orders ' + str([(f.na, f.nb) for f in fits]) if len(fits) > 1 else ''})",
+                            outputs=bad)
+    if len(fits) > 1:
+        failed = ", ".join(f"{f.na}/{f.nb} ({100 * float(np.max(f.val)):.2f} %)" for f in fits if f is not fit)
+        fit.notes.append(f"ARX orders {failed} missed the validation tolerance; refitted with {fit.na}/{fit.nb} on "
+                         "the same records")
+    return fit
+
+
 def with_symmetry(solver: UnsteadySolver, symmetry: str | None) -> UnsteadySolver:
     """``solver`` with its root ``symmetry`` replaced (None: unchanged); InputError naming ``symmetry`` without one."""
     if symmetry is None:
@@ -315,154 +309,6 @@ def with_symmetry(solver: UnsteadySolver, symmetry: str | None) -> UnsteadySolve
         raise InputError("symmetry", f"solver {getattr(solver, 'name', type(solver).__name__)!r} has no setting "
                                      "'symmetry'; pass a solver built for the root condition instead")
     return dataclasses.replace(solver, symmetry=symmetry)
-
-
-@dataclass
-class _Records:
-    """The training and validation signals, [T_train, m] and [T_val, m], as one run (continued) or two from rest."""
-
-    train: np.ndarray
-    validation: np.ndarray
-    continued: bool = True
-
-    @property
-    def signals(self) -> np.ndarray:
-        """[T_train + T_val, m] both signals, stacked."""
-        return np.vstack([self.train, self.validation])
-
-    def simulate(self, model: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
-        """[T_train + T_val, m] output of ``model`` (signals -> outputs, from rest) on the records as they ran."""
-        if self.continued:
-            return model(self.signals)
-        return np.vstack([model(self.train), model(self.validation)])
-
-
-@dataclass
-class _Fit:
-    """One identified model of a training run: ARX, its realization, the (reduced) ROM and its validation."""
-
-    na: int
-    nb: int
-    arx: ArxModel
-    full: DiscreteSS
-    ss: DiscreteSS
-    hsv: np.ndarray
-    pred: np.ndarray  # [T_val, m] ROM output on the validation signal
-    val: np.ndarray  # [m] validation NRMSE of ss
-    training_nrmse: np.ndarray
-    arx_val: np.ndarray
-    ar_ridge: float
-    notes: list[str]
-
-
-def _identify(
-    u_train: np.ndarray, gac: np.ndarray, both: _Records, n: int, m: int, na: int, nb: int, ridge: float,
-    dt_star: float, k_max: float, reduce_order: int | str | None, hsv_tol: float | None, reduce_tol: float,
-    progress: ProgressFn | None, band: float | None = None,
-) -> _Fit:
-    """ARX of orders (na, nb) fitted on the first n samples of gac [T, m], stabilized, reduced and validated (every
-    NRMSE counted at k <= ``band``, None: the whole record, ``record_error``)."""
-
-    def score(ref: np.ndarray, pred: np.ndarray) -> np.ndarray:
-        return record_error(ref, pred, dt_star, band)
-
-    arx = fit_arx(u_train, gac[:n], na=na, nb=nb, ridge=ridge, dt_star=dt_star)
-    full = arx_to_ss(arx, dt_star)
-    notes: list[str] = []
-    rho = full.spectral_radius()
-    ar_ridge = 0.0
-    for lam in _AR_RIDGES if not rho < 1.0 else ():  # a few regularization levels
-        trial = fit_arx(u_train, gac[:n], na=na, nb=nb, ridge=ridge, dt_star=dt_star, ar_ridge=lam)
-        trial_ss = arx_to_ss(trial, dt_star)
-        if trial_ss.spectral_radius() < 1.0:
-            notes.append(f"plain ARX fit was unstable (spectral radius {rho:.4f}); refitted with ar_ridge = {lam:g}")
-            arx, full, ar_ridge = trial, trial_ss, lam
-            break
-    pred_arx = both.simulate(lambda u: arx_simulate(arx, u)) if full.spectral_radius() < 1.0 else np.zeros_like(gac)
-    if not full.spectral_radius() < 1.0:
-        full, pred_arx, n_ref = _stabilize(full, u_train, gac, both, n, score)
-        notes.append(
-            f"ARX fit had {n_ref} unstable pole(s) (spectral radius {rho:.4f}) even with ar_ridge; reflected to "
-            "1/conj(z) (output map refitted when that validated better), then validated"
-        )
-    ss, hsv = full, np.zeros(0)
-    arx_val = score(gac[n:], pred_arx[n:])  # the full realization's validation error
-    if reduce_order == "auto":
-        if progress is not None:
-            progress(0.95, "frequency-limited balanced truncation")
-        ss, hsv = _auto_reduce(full, both, gac, n, m, k_max, reduce_tol, score)
-    elif reduce_order is not None or hsv_tol is not None:
-        if progress is not None:
-            progress(0.95, "balanced truncation")
-        ss, hsv = balanced_truncation(full, order=None if isinstance(reduce_order, str) else reduce_order,
-                                      hsv_tol=hsv_tol)
-    pred = both.simulate(ss.simulate)[n:] if ss is not full else pred_arx[n:]
-    return _Fit(na=na, nb=nb, arx=arx, full=full, ss=ss, hsv=hsv, pred=pred, val=score(gac[n:], pred),
-                training_nrmse=score(gac[:n], pred_arx[:n]), arx_val=arx_val,
-                ar_ridge=ar_ridge, notes=notes)
-
-
-def _stabilize(
-    full: DiscreteSS, u_train: np.ndarray, gac: np.ndarray, both: _Records, n_train: int,
-    score: Callable[[np.ndarray, np.ndarray], np.ndarray] = nrmse,
-) -> tuple[DiscreteSS, np.ndarray, int]:
-    """Reflect unstable poles; keep the better (validation NRMSE) of plain reflection and reflection + C, D refit."""
-    refl, n_ref = reflect_unstable_poles(full)
-    if not refl.spectral_radius() < 1.0:
-        raise TrainingError(
-            f"identified ARX model is unstable (spectral radius {full.spectral_radius():.6f} >= 1) and could not be "
-            "stabilized; try other na/nb or another signal length"
-        )
-    best: tuple[float, DiscreteSS, np.ndarray] | None = None
-    for cand in (refl, refit_output_map(refl, u_train, gac[:n_train])):  # two candidates
-        pred = both.simulate(cand.simulate)
-        err = float(np.max(score(gac[n_train:], pred[n_train:])))
-        if best is None or err < best[0]:
-            best = (err, cand, pred)
-    assert best is not None
-    return best[1], best[2], n_ref
-
-
-def _auto_reduce(
-    full: DiscreteSS, u: _Records, f: np.ndarray, n_train: int, m: int, k_band: float, tol: float,
-    score: Callable[[np.ndarray, np.ndarray], np.ndarray] = nrmse,
-) -> tuple[DiscreteSS, np.ndarray]:
-    """Smallest stable band-limited balanced truncation (orders m, 2m, ...) with validation NRMSE <= tol; when
-    none passes, the minimal realization of ``full`` (:func:`minimal_arx_realization`)."""
-    orders = list(range(m, full.n_states, m))
-    models, hsv = balanced_models(full, orders, k_band=k_band)
-    for red in models:  # a handful of candidate orders
-        if not red.is_stable():
-            continue
-        err = score(f[n_train:], u.simulate(red.simulate)[n_train:])
-        if np.all(err <= tol):
-            return red, hsv
-    return minimal_arx_realization(full, u, f, n_train), hsv
-
-
-def minimal_arx_realization(full: DiscreteSS, u: _Records, f: np.ndarray, n_train: int) -> DiscreteSS:
-    """``full`` without its surplus states: the minimal realization (orthogonal staircase, exact), in real modal
-    form when that transformation is well conditioned (condition < ``MODAL_COND_MAX``). Kept only if it is stable
-    and its validation output differs from ``full``'s by at most ``MINIMAL_MATCH_TOL`` of the largest output RMS
-    of ``f`` [T, m]; else the minimal realization as it is, under the same test; else ``full``.
-
-    An ARX realization carries the delayed inputs as states: repeated, defective poles at z = 0 whose
-    eigenvectors are numerically singular (condition 1e34 to 1e148 measured on TSD ROMs), so the flutter search
-    could not diagonalize it and fell back to full eigenvectors at every step. The match is judged on the models'
-    outputs, not on their errors against the records, so the records' noise does not decide. docs/transonic.md
-    7.9."""
-    minimal = minimal_realization(full)
-    if minimal.n_states >= full.n_states:
-        return full
-    modal, cond = real_modal_form(minimal)
-    val = slice(n_train, None)
-    ref = u.simulate(full.simulate)[val]
-    bound = MINIMAL_MATCH_TOL * float(np.max(np.sqrt(np.mean(f[val] ** 2, axis=0))))
-    for cand in (modal, minimal) if cond < MODAL_COND_MAX else (minimal,):  # two candidates at most
-        if cand.is_stable() and float(np.max(np.sqrt(np.mean((u.simulate(cand.simulate)[val] - ref) ** 2,
-                                                                  axis=0)))) <= bound:
-            return cand
-    return full
 
 
 def with_minimal_realization(rom: Any) -> Any:
@@ -476,6 +322,6 @@ def with_minimal_realization(rom: Any) -> Any:
     full = arx_to_ss(rom.arx, rom.dt_star)
     if full.A.shape != rom.ss.A.shape or not np.array_equal(full.A, rom.ss.A):  # not the plain ARX realization
         return rom
-    rec = _Records(rom.signals_train, rom.signals_validation, continued=rom.solver != "tsd")
+    rec = Records(rom.signals_train, rom.signals_validation, continued=rom.solver != "tsd")
     ss = minimal_arx_realization(rom.ss, rec, np.vstack([rom.gac_train, rom.gac_validation]), len(rom.signals_train))
     return rom if ss is rom.ss else dataclasses.replace(rom, ss=ss, spectral_radius=float(ss.spectral_radius()))

@@ -136,8 +136,8 @@ def test_an_unreduced_arx_rom_keeps_its_minimal_realization():
     shift-register states (defective poles at z = 0) go, the transfer matrix and the validation error stay, and the
     eigenvectors become well conditioned (the flutter search's fast path; docs/transonic.md 7.9)."""
     from romams_core.arx import ArxModel
+    from romams_core.arx_identification import Records, minimal_arx_realization
     from romams_core.statespace import arx_to_ss
-    from romams_core.training import _Records, minimal_arx_realization
 
     a = np.zeros((4, 1, 1))
     a[0] = 0.8
@@ -146,7 +146,7 @@ def test_an_unreduced_arx_rom_keeps_its_minimal_realization():
     full = arx_to_ss(ArxModel(a=a, b=b, dt_star=0.1))  # a first-order system realized with 7 states
     assert full.n_states == 7 and np.linalg.cond(np.linalg.eig(full.A)[1]) > 1e12
     rng = np.random.default_rng(3)
-    rec = _Records(rng.standard_normal((300, 1)), rng.standard_normal((200, 1)))
+    rec = Records(rng.standard_normal((300, 1)), rng.standard_normal((200, 1)))
     f = rec.simulate(full.simulate)
     red = minimal_arx_realization(full, rec, f, 300)
     assert red.n_states == 1 and red.is_stable()
@@ -162,15 +162,15 @@ def test_a_mimo_arx_rom_keeps_its_minimal_realization_in_modal_form():
     minimal realization in real modal form: same transfer matrix to 1e-9 of the largest entry, eigenvector
     condition below DIAG_COND_MAX (the full realization's is above 1e12), the same poles."""
     from romams_core.arx import ArxModel
+    from romams_core.arx_identification import Records, minimal_arx_realization
     from romams_core.realization import minimal_realization
     from romams_core.statespace import DIAG_COND_MAX, arx_to_ss, eigenvector_condition
-    from romams_core.training import _Records, minimal_arx_realization
 
     rng = np.random.default_rng(5)
     full = arx_to_ss(ArxModel(a=0.15 * rng.standard_normal((4, 3, 3)), b=rng.standard_normal((4, 3, 3)), dt_star=0.1))
     assert full.n_states == 21 and full.is_stable() and eigenvector_condition(full.A) > 1e12
     assert minimal_realization(full).n_states == 12
-    rec = _Records(rng.standard_normal((300, 3)), rng.standard_normal((200, 3)), continued=False)
+    rec = Records(rng.standard_normal((300, 3)), rng.standard_normal((200, 3)), continued=False)
     red = minimal_arx_realization(full, rec, rec.simulate(full.simulate), 300)
     assert red.n_states == 12 and eigenvector_condition(red.A) < min(DIAG_COND_MAX, 100.0)
     assert np.count_nonzero(np.abs(red.A) > 1e-12) <= 12 + 2 * 6  # block diagonal: 1x1 and 2x2 blocks
