@@ -17,7 +17,8 @@ unstable point), but reaches the points by predictor-corrector steps instead of 
   not skipped), down to the sweep's minimum step. The step grows (x 2) when the corrector lands close to the
   predictor and shrinks (/ 4) on a rejected step;
 - a full eigen-solve resolves what Newton cannot: a step rejected at the smallest Newton step ``H_MIN`` (of the
-  natural range) is taken by ``Tracker._advance`` (Hungarian assignment of the full spectrum, its split rules),
+  natural range) is taken by ``Tracker._advance`` (Hungarian assignment of the full spectrum, its split rules,
+  with the step halved where it quarters it: ``split_fractions``),
   and after ``FALLBACKS`` such steps in a row the rest of the way to the next target point as well;
   and at the fixed checkpoints ``CHECKPOINTS`` (fractions of the sweep's range, independent of the coarse grid)
   the Newton states are compared, after the sweep and in one eigen-solve request, with the assignment of the full
@@ -51,6 +52,7 @@ from .tracking import (
     G_UNSTABLE,
     HUMP_ERR,
     HUMP_FLOOR,
+    POST_CROSSING_DEPTH,
     Branches,
     Path,
     Solve,
@@ -107,6 +109,11 @@ class ContinuationTracker(Tracker):
     """Branch continuation by Newton on det T(s) (module docstring); ``Tracker`` for models without it."""
 
     newton_last = False  # the path's last point came from a Newton step (not yet checked by a full solve)
+    # the full-spectrum steps it hands over are halved, not quartered, when they must be refined: 2.4 instead of 4.1
+    # eigen-solves per Mach on the cropped delta's DLM ROMs, the same flutter points (docs/performance.md 6c); twice
+    # the levels after the crossing keep the eigen tracker's finest post-crossing step
+    split_fractions = (0.5,)
+    post_crossing_depth = 2 * POST_CROSSING_DEPTH
 
     def track_search(self, grid: np.ndarray) -> Solve[Path]:
         """The path over the coarse grid (``Tracker.track_search``'s points and result), by continuation."""

@@ -258,6 +258,9 @@ class Tracker:
     (``batch.run_searches`` answers the requests of many searches with one batched eigen-solve).
     """
 
+    split_fractions: tuple[float, ...] = (0.25, 0.5, 0.75)  # interior points of a refined step (fractions)
+    post_crossing_depth = POST_CROSSING_DEPTH  # split levels of an ambiguous step after the first unstable point
+
     def __init__(self, model: Model, sweep: Sweep, weight: float, k_gate: float = math.inf):
         self.m = model
         self.sweep = sweep
@@ -286,8 +289,9 @@ class Tracker:
         return e
 
     def step(self, prev: Branches, p0: float, p1: float, e1: EigData, depth: int = 0) -> Solve[Branches]:
-        """Track from p0 (state prev) to p1 (eigen-data e1 of that point); an ambiguous step is split in four
-        sub-steps (one batched eigen-solve of the three interior points), at most ``POST_CROSSING_DEPTH`` times."""
+        """Track from p0 (state prev) to p1 (eigen-data e1 of that point); an ambiguous step is split at
+        ``split_fractions`` (one batched eigen-solve of the interior points; four sub-steps here, two in the
+        continuation), at most ``post_crossing_depth`` times."""
         path = Path([p0], [prev], [0.0], first_unstable=0)  # careful refinement off (x unused)
         yield from self._advance(path, p1, e1, depth)
         return path.states[-1]
@@ -322,7 +326,7 @@ class Tracker:
         """Whether the step from the path's last point to p1 (coordinate x1, state ``new``) must be refined."""
         p0 = path.p[-1]
         if not careful:
-            return check.ambiguous and depth < POST_CROSSING_DEPTH
+            return check.ambiguous and depth < self.post_crossing_depth
         if p1 - p0 <= self.sweep.min_step(p0) or path.n_refined >= MAX_REFINE_POINTS:
             return False
         if check.ambiguous or _content_jump(path.states[-1], new, self.m.omega):
@@ -336,16 +340,16 @@ class Tracker:
                                        self.m.omega, i != 0, np.array([SMOOTH_TOL, *_hump_consts()])))
 
     def _advance(self, path: Path, p1: float, e1: EigData, depth: int) -> Solve[None]:
-        """Append the point p1 (eigen-data e1) to the path, refining the step when needed."""
+        """Append the point p1 (eigen-data e1) to the path, refining the step at ``split_fractions`` when needed."""
         new, check = assign(path.states[-1], e1, self.weight, self.m.omega)
         careful = path.first_unstable is None
         x1 = 0.0 if e1.x is None else float(e1.x[0])
         if self._split(path, p1, x1, careful, check, new, depth):
             p0 = path.p[-1]
-            ps = p0 + (p1 - p0) * np.array([0.25, 0.5, 0.75])
+            ps = p0 + (p1 - p0) * np.asarray(self.split_fractions)
             em = yield from self.eig(ps)
-            path.n_refined += 3
-            for i in range(3):
+            path.n_refined += ps.size
+            for i in range(ps.size):
                 yield from self._advance(path, float(ps[i]), em.point(i), depth + 1)
             yield from self._advance(path, p1, e1, depth + 1)
             return
