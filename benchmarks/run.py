@@ -158,8 +158,10 @@ def structure_eval(models: dict[str, Any], n_designs: int, seed: int = 1) -> dic
 
 def batched_structure(models: dict[str, Any], n_batches: int, batch: int = 30, seed: int = 3) -> dict[str, Any]:
     """One structure inside a batch of ``batch`` (a DE generation): modal analysis per design, then the flutter
-    searches of the whole batch at every Mach together (``evaluate_structures``); CPU time of one core per batch
-    over ``batch``, median over ``n_batches`` batches (ms). Also the full eigen-solves per search (per Mach)."""
+    searches of the whole batch at every Mach together (``evaluate_structures``), without the V-g checks after
+    the crossing, as a DE chunk that keeps no V-g data runs them (``worker.evaluation.flutter_chunk``); CPU time of
+    one core per batch over ``batch``, median over ``n_batches`` batches (ms). Also the full eigen-solves per search
+    (per Mach), and the same with the V-g checks (``eigen_solves_per_mach_vg_checks``)."""
     from romams_core.basis import random_designs
     from romams_core.evaluate import evaluate_structures
     from romams_core.flutter import batch as flutter_batch_mod
@@ -168,7 +170,7 @@ def batched_structure(models: dict[str, Any], n_batches: int, batch: int = 30, s
     wing, mesh, basis, roms = models["wing"], models["mesh"], models["basis"], models["roms"]
     zeta = wing.modal_damping or None
     designs = random_designs(wing, batch * (n_batches + 1), seed=seed)
-    per, modal_ms, wall, solves = [], [], [], []
+    per, modal_ms, wall, solves, solves_vg = [], [], [], [], []
     for b in range(n_batches + 1):  # the first batch warms up
         chunk = designs[b * batch:(b + 1) * batch]
         stats = flutter_batch_mod.STATS
@@ -176,17 +178,22 @@ def batched_structure(models: dict[str, Any], n_batches: int, batch: int = 30, s
         w0, t0 = time.perf_counter(), time.process_time()
         modals = [modal_analysis(wing, x, models.get("modes", 4), mesh) for x in chunk]
         t1 = time.process_time()
-        evaluate_structures(modals, basis.shapes, roms, mac_threshold=EVAL_MAC, zeta=zeta)
+        evaluate_structures(modals, basis.shapes, roms, mac_threshold=EVAL_MAC, zeta=zeta,
+                            flutter_options={"vg_checks": False})
         t2, w2 = time.process_time(), time.perf_counter()
         if b:
             per.append(1e3 * (t2 - t0) / batch)
             modal_ms.append(1e3 * (t1 - t0) / batch)
             wall.append(1e3 * (w2 - w0) / batch)
             solves.append(stats.matrices / (batch * len(roms)))
+            stats.reset()  # the same batch with the V-g checks: its solves only (not timed)
+            evaluate_structures(modals, basis.shapes, roms, mac_threshold=EVAL_MAC, zeta=zeta)
+            solves_vg.append(stats.matrices / (batch * len(roms)))
     return {"batched_structure_ms": float(np.median(per)), "modal_ms": float(np.median(modal_ms)),
             "flutter_all_machs_ms": float(np.median(per) - np.median(modal_ms)),
             "wall_ms_median": float(np.median(wall)), "batch": batch, "n_batches": n_batches,
             "eigen_solves_per_mach": float(np.mean(solves)),
+            "eigen_solves_per_mach_vg_checks": float(np.mean(solves_vg)), "vg_checks": False,
             "clock": "CPU time of this single-threaded process over the batch / batch size"}
 
 

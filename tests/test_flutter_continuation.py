@@ -112,3 +112,27 @@ def test_unknown_tracking_is_an_input_error():
     with pytest.raises(InputError) as exc:
         flutter_analysis(OMEGA4, random_rom(0), 1.0, 0.8, tracking="newton", **KW)
     assert exc.value.field == "tracking"
+
+
+@pytest.mark.parametrize("sweep", ["constant-speed", "constant-density"])
+def test_without_vg_checks_the_flutter_point_is_the_same(sweep):
+    """vg_checks False skips only the checkpoints after the first one past the crossing (docs/performance.md 6c):
+    the same flutter point, mode and SDOFF to 1e-12, the same V-g data up to the flutter point, never more
+    full eigen-solves, and fewer over the 8 ROMs."""
+    n_on, n_off = 0, 0
+    for seed in range(8):
+        rom = random_rom(seed)
+        on, k_on = _solves(lambda rom=rom: flutter_analysis(OMEGA4, rom, 1.0, 0.8, sweep=sweep, **KW))
+        off, k_off = _solves(lambda rom=rom: flutter_analysis(OMEGA4, rom, 1.0, 0.8, sweep=sweep, vg_checks=False,
+                                                              **KW))
+        assert off.flutter_found == on.flutter_found and off.flutter_mode == on.flutter_mode
+        assert off.sdoff == on.sdoff and k_off <= k_on
+        if on.flutter_found:
+            assert off.q_flutter_pa == pytest.approx(on.q_flutter_pa, rel=1e-12)
+            assert off.omega_flutter_rad_s == pytest.approx(on.omega_flutter_rad_s, rel=1e-12)
+            before = on.q < on.q_flutter_pa
+            np.testing.assert_allclose(off.g[before], on.g[before], rtol=0, atol=1e-12)
+        else:
+            np.testing.assert_allclose(off.g, on.g, rtol=0, atol=1e-12)  # no crossing: every check runs
+        n_on, n_off = n_on + k_on, n_off + k_off
+    assert n_off < n_on

@@ -150,11 +150,13 @@ def flutter_chunk(job_id: str) -> None:
         todo = [i for i, s in enumerate(out) if s is None]
         if todo:  # the designs not seen before, evaluated together (one batched flutter search per Mach)
             models = models_for(job["wing_id"], p["basis_id"], p["rom_ids"])
+            # the V-g curves are kept only when asked for; else the checks that only correct them are skipped,
+            # and the chunk's best design, stored with its curves, is evaluated again with them (fill_best)
             fresh = evaluate_designs(models, [designs[i] for i in todo], condition=condition_of(p),
-                                     cache=OBJECTS.get_or_load)
+                                     cache=OBJECTS.get_or_load, vg_checks=keep_vg)
             for i, (summary, result) in zip(todo, fresh, strict=True):
                 RESULTS.put(keys[i], summary)
-                out[i], full[i] = summary, result
+                out[i], full[i] = summary, result if keep_vg else None
         progress(1.0, f"{len(designs)}/{len(designs)} designs")
         result = {"index": p["index"], "results": out}
         if p.get("run_id") is None:
@@ -185,8 +187,9 @@ def chunk_best(rows: list[dict[str, Any]], best: float | None) -> int | None:
 
 
 def fill_best(job: dict[str, Any], designs: list[Any], rows: list[dict[str, Any]], full: list[Any]) -> None:
-    """The full result (V-g data) of the chunk's new best design (``chunk_best``) when it was answered from the
-    result cache (which keeps summaries only): evaluated again, into ``full``."""
+    """The full result (V-g data) of the chunk's new best design (``chunk_best``) when the chunk has none for it
+    (answered from the result cache, which keeps summaries only, or evaluated without the V-g checks): evaluated
+    again, into ``full``."""
     p = job["params"]
     i = chunk_best(rows, store().runs.best_objective(int(p["run_id"])))
     if i is not None and full[i] is None:

@@ -110,12 +110,12 @@ def projection_choice(condition: FlightCondition, roms: Mapping[float, tuple[int
 
 
 def evaluate_many(models: Models, modals: Sequence[Any], condition: FlightCondition = DEFAULT_CONDITION, *,
-                  benchmark: Any = None, shapes: Any = None) -> list[Any]:
+                  benchmark: Any = None, shapes: Any = None, vg_checks: bool = True) -> list[Any]:
     """StructureEvaluations of several structures with the basis ROMs of ``models``, their flutter searches run as
     one batch per Mach (``romams_core.evaluate.evaluate_structures``; equal to one-at-a-time evaluations).
 
     ``shapes``: the basis the ROMs were trained on (default the models' basis; given: the structure's own modes,
-    which need no projection correction). InvalidInput naming the field.
+    which need no projection correction); ``vg_checks``: as ``evaluate_designs``. InvalidInput naming the field.
     """
     from romams_core.evaluate import evaluate_structures
     from romams_core.projection_residual import ResidualCorrection
@@ -129,7 +129,8 @@ def evaluate_many(models: Models, modals: Sequence[Any], condition: FlightCondit
                                    sweep=condition.sweep, coupling=condition.coupling,
                                    zeta=damping_ratio(models.wing), benchmark=benchmark,
                                    mac_threshold=float(models.basis.mac_threshold),
-                                   flutter_options=condition.flutter_options(), residual=residual)
+                                   flutter_options={**condition.flutter_options(), "vg_checks": vg_checks},
+                                   residual=residual)
     except InputError as exc:
         raise from_input_error(exc) from exc
 
@@ -139,17 +140,19 @@ def evaluate_designs_summary(models: Models, designs: Sequence[Any], *,
                              cache: Callable[[tuple[Any, ...], Callable[[], Any]], Any] | None = None,
                              ) -> list[dict[str, Any]]:
     """The use case for a chunk of designs: the JSON summary of each (as ``evaluate_structure_summary``), or
-    {"error": message} for a design that is rejected (:func:`evaluate_designs` without the full results)."""
-    return [s for s, _ in evaluate_designs(models, designs, condition=condition, cache=cache)]
+    {"error": message} for a design that is rejected (:func:`evaluate_designs` without the full results, so without
+    the checks of the V-g curves after the crossing)."""
+    return [s for s, _ in evaluate_designs(models, designs, condition=condition, cache=cache, vg_checks=False)]
 
 
 def evaluate_designs(models: Models, designs: Sequence[Any], *, condition: FlightCondition = DEFAULT_CONDITION,
                      cache: Callable[[tuple[Any, ...], Callable[[], Any]], Any] | None = None,
-                     ) -> list[tuple[dict[str, Any], Any]]:
+                     vg_checks: bool = True) -> list[tuple[dict[str, Any], Any]]:
     """(JSON summary, StructureEvaluation or None) of each design of a chunk; a rejected design gets
     ({"error": message}, None). Modal analysis per design; the flutter searches of all designs at each Mach run as
     one batch. Should the batch fail, the designs are evaluated one at a time, so that the error is reported for the
-    design that caused it.
+    design that caused it. ``vg_checks`` False: the V-g curves after each crossing are not checked by full solves
+    (the flutter points are the same; for evaluations whose curves are not kept, docs/performance.md 6c).
     """
     try:
         base = baseline_evaluation(models, condition, cache)
@@ -165,12 +168,12 @@ def evaluate_designs(models: Models, designs: Sequence[Any], *, condition: Fligh
         except ValueError as exc:  # a design the structure model rejects: reported per design
             out[i] = ({"error": str(exc)}, None)
     try:
-        results = evaluate_many(models, modals, condition, benchmark=bench)
+        results = evaluate_many(models, modals, condition, benchmark=bench, vg_checks=vg_checks)
     except ValueError:
         results = []
         for modal in modals:
             try:
-                results.append(evaluate(models, modal, condition, benchmark=bench))
+                results.append(evaluate_many(models, [modal], condition, benchmark=bench, vg_checks=vg_checks)[0])
             except ValueError as exc:
                 results.append(exc)
     for i, r in zip(idx, results, strict=True):

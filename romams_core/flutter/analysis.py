@@ -39,6 +39,7 @@ class _Search:
     k_band: float | None
     tracking: str
     k_gate: float = math.inf  # band above which an unstable branch is not counted (constant density, 9.10)
+    vg_checks: bool = True  # verify the V-g curves after the crossing too (continuation checkpoints)
 
 
 TRACKERS = {"continuation": ContinuationTracker, "eigen": Tracker}  # docs/flutter.md 9.7
@@ -69,6 +70,8 @@ def flutter_analysis(omega: np.ndarray, aero: Any, c_ref: float, mach: float, **
     sdoff_q_factor q_f; k_band (reduced frequency on c_ref / 2): a flutter point above the band the ROM was
     identified in is flagged ``outside_band``, and in a constant-density sweep an unstable run that stays above
     the band and ends is not counted as flutter (``band_gate``, ``counted_onset``, ``unstable_above_band_v_m_s``).
+    ``vg_checks`` False: the continuation skips the full-spectrum checks that can only correct the V-g curves after
+    the crossing (the flutter point is the same; for searches whose curves are not kept, docs/performance.md 6c).
     Reports the TRUE speed ``v_flutter_m_s`` and the equivalent airspeed ``v_eas_m_s``; no flutter in range is a
     result with flutter_found False. Invalid input raises romams_core.errors.InputError naming the field. The same
     search as one member of ``flutter_batch``.
@@ -94,7 +97,7 @@ def prepare_search(
     v_max: float | None = None, q_max: float | None = None,
     altitude_range_m: tuple[float, float] = (0.0, 20_000.0), n_points: int = 12, sdoff_share: float = 0.9,
     sdoff_q_factor: float = 1.1, track_weight: float = 0.5, rtol: float = 1e-4, k_band: float | None = None,
-    tracking: str = DEFAULT_TRACKING,
+    tracking: str = DEFAULT_TRACKING, vg_checks: bool = True,
 ) -> _Search:
     """The validated search of ``flutter_analysis`` (its docstring; InputError naming the field)."""
     om, zt, c_ref, mach = check_flutter_inputs(omega, zeta, c_ref, mach, sweep)
@@ -108,7 +111,7 @@ def prepare_search(
         raise InputError("tracking", f"must be one of {sorted(TRACKERS) + ['auto']}, got {tracking!r}")
     band = None if k_band is None else finite_positive("k_band", k_band)
     return _Search(model, sw, head, int(n_points), float(sdoff_share), float(sdoff_q_factor), track_weight,
-                   float(rtol), band, resolve_tracking(tracking, model, sw), band_gate(sw, band))
+                   float(rtol), band, resolve_tracking(tracking, model, sw), band_gate(sw, band), bool(vg_checks))
 
 
 def band_gate(sweep: Sweep, k_band: float | None) -> float:
@@ -123,6 +126,7 @@ def flutter_search(se: _Search) -> Solve[FlutterResult]:
     """The search (a generator of eigen requests, batch.py) -> FlutterResult."""
     sw, om = se.sweep, se.model.omega
     tracker = TRACKERS[se.tracking](se.model, sw, se.track_weight, se.k_gate)
+    tracker.vg_checks = se.vg_checks
     path = yield from tracker.track_search(sw.grid(se.n_points))
     cands = counted_onset(tracker, path)
     above = _unstable_above_band(tracker, path)

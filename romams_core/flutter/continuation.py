@@ -22,7 +22,8 @@ unstable point), but reaches the points by predictor-corrector steps instead of 
   and after ``FALLBACKS`` such steps in a row the rest of the way to the next target point as well;
   and at the fixed checkpoints ``CHECKPOINTS`` (fractions of the sweep's range, independent of the coarse grid)
   the Newton states are compared, after the sweep and in one eigen-solve request, with the assignment of the full
-  spectrum from the point before each; at the first that differs (a root that entered between the branches, or a
+  spectrum from the point before each (with ``vg_checks`` False only those that can change the flutter point,
+  ``_deciding``); at the first that differs (a root that entered between the branches, or a
   branch that slid onto another root) the path is cut, the full-spectrum step replaces the Newton one and the
   continuation resumes from there.
 
@@ -105,6 +106,16 @@ def _step_consts() -> np.ndarray:
                      HUMP_FLOOR])
 
 
+def _deciding(path: Path, marks: list[int]) -> list[int]:
+    """The checkpoints (path indices ``marks``) that can change the flutter point: all before the first unstable
+    point and the first at or after it, which catches a slide before the crossing that lasts to it; the later ones
+    check only the V-g curves after the crossing (docs/performance.md 6c)."""
+    fu = path.first_unstable
+    if fu is None:
+        return marks
+    return [i for i in marks if i < fu] + [i for i in marks if i >= fu][:1]
+
+
 class ContinuationTracker(Tracker):
     """Branch continuation by Newton on det T(s) (module docstring); ``Tracker`` for models without it."""
 
@@ -114,6 +125,7 @@ class ContinuationTracker(Tracker):
     # the levels after the crossing keep the eigen tracker's finest post-crossing step
     split_fractions = (0.5,)
     post_crossing_depth = 2 * POST_CROSSING_DEPTH
+    vg_checks = True  # False: skip the checkpoints that check only the V-g curves after the crossing (``_deciding``)
 
     def track_search(self, grid: np.ndarray) -> Solve[Path]:
         """The path over the coarse grid (``Tracker.track_search``'s points and result), by continuation."""
@@ -137,7 +149,7 @@ class ContinuationTracker(Tracker):
         todo = pts
         while True:
             marks = yield from self._run(path, todo.tolist(), coarse, check_set, h)
-            bad = yield from self._verify(path, marks)
+            bad = yield from self._verify(path, marks if self.vg_checks else _deciding(path, marks))
             if bad is None:
                 return path
             i, e_c = bad  # the checkpoint path.p[i] disagrees with the full spectrum: retrack from it

@@ -260,6 +260,7 @@ class Tracker:
 
     split_fractions: tuple[float, ...] = (0.25, 0.5, 0.75)  # interior points of a refined step (fractions)
     post_crossing_depth = POST_CROSSING_DEPTH  # split levels of an ambiguous step after the first unstable point
+    vg_checks = True  # the eigen tracker checks every step with a full solve anyway
 
     def __init__(self, model: Model, sweep: Sweep, weight: float, k_gate: float = math.inf):
         self.m = model

@@ -255,3 +255,25 @@ def test_progress_history_keeps_each_new_message(store):
     assert store.jobs.finish(job_id, "failed", error="boom", traceback="Traceback ...")
     job = store.jobs.get(job_id)
     assert job["traceback"] == "Traceback ..." and not store.jobs.progress(job_id, 1.0, "late")
+
+
+def test_a_best_designs_vg_equals_its_kept_vg(svc):
+    """A chunk that keeps no V-g data skips the full-spectrum checks of the curves after each crossing
+    (docs/performance.md 6c); its new best design, stored with its curves, is evaluated again with them. So its
+    stored V-g data equal those of the same design in a run that keeps every design's (keep_vg: every check on)."""
+    c = svc.client
+    designs = _designs(4, 57)  # new designs: evaluated by the chunk, not answered from the result cache
+    first = c.post("/api/v1/runs", json={"name": "best vg"}).json()["id"]
+    _batch(svc, designs, run_id=first)
+    best = c.get(f"/api/v1/runs/{first}").json()["best"]
+    assert best is not None and best["evaluation_id"] is not None
+    kept = c.post("/api/v1/runs", json={"name": "all vg"}).json()["id"]
+    _batch(svc, designs, run_id=kept, keep_vg=True)
+    rows = c.get(f"/api/v1/runs/{kept}/evaluations").json()["evaluations"]
+    same = next(r for r in rows if r["x"] == best["x"])
+    a = c.get(f"/api/v1/evaluations/{best['evaluation_id']}/vg").json()["machs"]
+    b = c.get(f"/api/v1/evaluations/{same['evaluation_id']}/vg").json()["machs"]
+    assert len(a) == len(b) == len(MACHS)
+    for ma, mb in zip(a, b, strict=True):
+        assert ma["omega_flutter_rad_s"] == pytest.approx(mb["omega_flutter_rad_s"], rel=1e-12)
+        np.testing.assert_allclose(np.asarray(ma["g"], float), np.asarray(mb["g"], float), rtol=0, atol=1e-12)
