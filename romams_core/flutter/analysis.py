@@ -189,8 +189,8 @@ def _unstable_above_band(tracker: Tracker, path: Path) -> float | None:
     if math.isinf(tracker.k_gate):
         return None
     end = len(path.p) if path.first_unstable is None else path.first_unstable
-    hits = [p for p, st in zip(path.p[1:end], path.states[1:end], strict=True)
-            if np.any((2.0 * st.lam.real / np.abs(st.lam) > G_UNSTABLE) & ~tracker.in_band(p, st))]
+    hits = [path.p[i] for i in range(1, end)
+            if np.any((path.g(i) > G_UNSTABLE) & ~tracker.in_band(path.p[i], path.states[i]))]
     return None if not hits else float(tracker.sweep.cond(np.array([max(hits)]))[0][0])
 
 

@@ -292,17 +292,24 @@ def _stiffness_inverse(k: sp.spmatrix) -> LinearOperator | None:
     r, col, v = c.row[upper], c.col[upper], c.data[upper]
     n = k.shape[0]
     u = int((col - r).max(initial=0))
-    if u > n // 4:
+    if _too_wide(u, n):  # before the band array is allocated
         return None
     ab = np.zeros((u + 1, n))
     ab[u + r - col, col] = v
     return _banded_inverse(ab)
 
 
+def _too_wide(u: int, n: int) -> bool:
+    """A band of upper width u on n DOFs is too wide for the banded Cholesky to pay."""
+    return u > n // 4
+
+
 def _banded_inverse(ab: np.ndarray) -> LinearOperator | None:
     """K^-1 as an operator from K's upper band ab [u + 1, n] (banded Cholesky); None if K is not positive
-    definite (eigsh then factors K - sigma M itself)."""
+    definite or its band is too wide to pay (eigsh then factors K - sigma M itself)."""
     n = ab.shape[1]
+    if _too_wide(ab.shape[0] - 1, n):
+        return None
     try:
         cb = cholesky_banded(ab, lower=False, check_finite=False)
     except np.linalg.LinAlgError:
@@ -314,9 +321,10 @@ def solve_modes(model: FEModel, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     """Lowest eigenpairs: omega [k] (rad/s) and mass-normalized full-DOF modes [n_dof, k] (clamped DOFs zero)."""
     f = model.free
     fp = model.free_part
-    fast = fp is not None and np.array_equal(fp.free, f)
-    kff = fp.block(model.K) if fp is not None and fast else model.K[f][:, f]
-    mff = fp.block(model.M) if fp is not None and fast else model.M[f][:, f]
+    if fp is not None and not np.array_equal(fp.free, f):
+        fp = None  # ``free`` changed after the assembly (a study releasing DOFs): the general slicing
+    kff = model.K[f][:, f] if fp is None else fp.block(model.K)
+    mff = model.M[f][:, f] if fp is None else fp.block(model.M)
     if not 1 <= n_modes < f.size:
         raise InputError("n_modes", f"must be in [1, {f.size - 1}], got {n_modes}")
     if f.size <= 60:
@@ -325,8 +333,7 @@ def solve_modes(model: FEModel, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
         # a fixed start vector: ARPACK's default is random, which makes repeated analyses of one structure differ
         # at round-off (the baseline compared with itself must give a zero envelope margin, everywhere)
         v0 = np.random.default_rng(0).standard_normal(f.size)
-        band = fp.banded_upper(kff) if fp is not None and fast and fp.band <= f.size // 4 else None
-        op = _stiffness_inverse(kff) if band is None else _banded_inverse(band)
+        op = _stiffness_inverse(kff) if fp is None else _banded_inverse(fp.banded_upper(kff))
         lam, vec = eigsh(kff, k=n_modes, M=mff, sigma=0.0, which="LM", OPinv=op, v0=v0)
     order = np.argsort(lam)
     lam, vec = lam[order], vec[:, order]
